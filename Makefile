@@ -1,0 +1,59 @@
+# Summit XL navigation workspace. The two commands: `make demo` and `make test`.
+# Every recipe runs with the ROS Python (/usr/bin/python3) first on PATH: a pyenv or
+# conda python3 earlier on PATH has no rospy and must not be used.
+SHELL := /bin/bash
+.SHELLFLAGS := -eo pipefail -c
+export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
+PYTHON := /usr/bin/python3
+WS := $(CURDIR)
+# ROS from /opt/ros/noetic when it is there (Ubuntu 20.04), else Debian's own packages.
+ROS_SETUP := $(wildcard /opt/ros/noetic/setup.bash)
+SOURCE_ROS := $(if $(ROS_SETUP),source $(ROS_SETUP) &&,)
+SOURCE_WS := $(SOURCE_ROS) source $(WS)/devel/setup.bash &&
+SETUP_STAMP := build/.setup-done
+BUILD_STAMP := devel/setup.bash
+PY_SOURCES := $(shell find src -name '*.py' -o -name 'CMakeLists.txt' -o -name 'package.xml' -o -name '*.srv' -o -name '*.msg' 2>/dev/null)
+
+.PHONY: all setup build test unit integration demo bench frames clean world
+all: build
+
+# Installs the system packages listed once in docker/packages-debian.txt (apt; sudo when
+# not root). Quick when everything is already installed: dpkg is asked first.
+setup:
+	@$(PYTHON) tools/setup_packages.py
+
+build: setup $(BUILD_STAMP)
+
+$(BUILD_STAMP): $(PY_SOURCES)
+	@$(SOURCE_ROS) catkin_make -C $(WS) -DPYTHON_EXECUTABLE=$(PYTHON) -DCATKIN_ENABLE_TESTING=ON -DCMAKE_BUILD_TYPE=Release > build.log 2>&1 \
+	  || { tail -40 build.log; echo "catkin_make failed: see build.log"; exit 1; }
+	@touch $(BUILD_STAMP)
+	@echo "build: ok (catkin_make, log in build.log)"
+
+# Unit tests (pytest, no ROS master) then the rostest integration tests, all through
+# pytest so the run ends with one pytest summary line.
+test: build
+	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini $(PYTEST_ARGS)
+
+unit: build
+	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini -m "not integration" $(PYTEST_ARGS)
+
+integration: build
+	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini -m integration $(PYTEST_ARGS)
+
+demo: build
+	@$(SOURCE_WS) $(PYTHON) tools/demo.py $(if $(GUI),--gui,)
+
+bench: build
+	@$(SOURCE_WS) $(PYTHON) tools/bench.py $(BENCH_ARGS)
+
+# The tf tree as PDF and PNG (tf2_tools view_frames), as in the course's first step.
+frames: build
+	@$(SOURCE_WS) $(PYTHON) tools/frames.py
+
+# Regenerates the built-in world's PGM/YAML from its editable description.
+world: build
+	@$(SOURCE_WS) rosrun summit_xl_sim make_world
+
+clean:
+	rm -rf build devel install build.log

@@ -1,0 +1,272 @@
+"""Occupancy-grid map files with ROS map_server's exact semantics.
+
+Reads a map YAML + image (PGM, PNG, BMP, ...) into the int8 cell values of a
+nav_msgs/OccupancyGrid, and writes a map as map_saver does (trinary PGM + YAML).
+
+Reference: ROS 1 map_server, ``image_loader.cpp`` (loadMapFromFile) and
+``map_saver.cpp``; YAML keys documented at wiki.ros.org/map_server.
+
+This module is the one map I/O helper of the workspace (SPEC.md: shared helpers live in
+the lowest package that needs it); the simulator loads its worlds with it and the
+mapping package's map_server and map_saver use it too.
+
+Conventions: ``data`` is a (height, width) int8 array in OccupancyGrid order, row 0 the
+*lowest* row of the image (map_server flips the image so cell (0, 0) is the lower-left
+corner). Values: 100 occupied, 0 free, -1 unknown, 1..99 in ``scale`` mode.
+"""
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+import yaml
+
+OCCUPIED = 100  # OccupancyGrid value of a lethal cell
+FREE = 0
+UNKNOWN = -1
+MODES = ("trinary", "scale", "raw")
+
+# map_saver's pixel values for the trinary PGM it writes.
+PGM_FREE = 254
+PGM_OCCUPIED = 0
+PGM_UNKNOWN = 205
+# map_saver's default thresholds on OccupancyGrid values [0..100].
+SAVER_OCCUPIED_THRESHOLD = 65
+SAVER_FREE_THRESHOLD = 25
+# What map_saver writes into the YAML (and so what the saved map means).
+SAVER_OCCUPIED_THRESH = 0.65
+SAVER_FREE_THRESH = 0.196
+
+
+class MapError(ValueError):
+    """A map file that cannot be loaded or saved; the message names the file and field."""
+
+
+@dataclass
+class GridMap:
+    """An occupancy grid with its geometry.
+
+    data: (height, width) int8, OccupancyGrid values, row 0 = lowest y.
+    resolution: cell edge [m].
+    origin: (x [m], y [m], yaw [rad]) of the lower-left corner of cell (0, 0).
+    """
+
+    data: np.ndarray
+    resolution: float
+    origin: tuple = (0.0, 0.0, 0.0)
+    # Extra facts from the YAML that loaded it (for reporting); not part of the grid.
+    source: dict = field(default_factory=dict)
+
+    @property
+    def width(self):
+        """Number of columns (cells along x)."""
+        return int(self.data.shape[1])
+
+    @property
+    def height(self):
+        """Number of rows (cells along y)."""
+        return int(self.data.shape[0])
+
+    def world_to_cell(self, x, y):
+        """Cell (col, row) holding world point (x, y) [m], or None when off the map.
+
+        Honours the origin's yaw, as map_server's origin does.
+        """
+        ox, oy, oyaw = self.origin
+        dx, dy = x - ox, y - oy
+        c, s = math.cos(oyaw), math.sin(oyaw)
+        mx, my = c * dx + s * dy, -s * dx + c * dy
+        col = int(math.floor(mx / self.resolution))
+        row = int(math.floor(my / self.resolution))
+        if 0 <= col < self.width and 0 <= row < self.height:
+            return col, row
+        return None
+
+    def cell_to_world(self, col, row):
+        """World (x, y) [m] of the centre of cell (col, row)."""
+        ox, oy, oyaw = self.origin
+        mx, my = (col + 0.5) * self.resolution, (row + 0.5) * self.resolution
+        c, s = math.cos(oyaw), math.sin(oyaw)
+        return ox + c * mx - s * my, oy + s * mx + c * my
+
+
+def _require(doc, key, path, kind):
+    if key not in doc:
+        raise MapError(f"{path}: the map YAML has no '{key}' field")
+    value = doc[key]
+    try:
+        if kind is float:
+            value = float(value)
+            if not math.isfinite(value):
+                raise ValueError
+        elif kind is int:
+            if isinstance(value, bool):
+                value = int(value)
+            elif float(value) != int(float(value)):
+                raise ValueError
+            value = int(float(value))
+        elif kind is str:
+            if not isinstance(value, str) or not value:
+                raise ValueError
+    except (TypeError, ValueError):
+        raise MapError(f"{path}: field '{key}' is invalid: {value!r}") from None
+    return value
+
+
+def read_map_yaml(path):
+    """Parse and validate a map_server YAML; returns a dict with absolute image path.
+
+    Raises MapError naming the file and the field for: a missing file, malformed YAML,
+    a missing or invalid field, an unknown mode, thresholds out of [0, 1] or in the
+    wrong order, a non-positive resolution, or an image that does not exist.
+    """
+    if not os.path.isfile(path):
+        raise MapError(f"{path}: map YAML does not exist")
+    try:
+        with open(path) as f:
+            doc = yaml.safe_load(f)
+    except yaml.YAMLError as e:
+        raise MapError(f"{path}: malformed YAML: {e}") from None
+    if not isinstance(doc, dict):
+        raise MapError(f"{path}: malformed map YAML: expected a mapping of fields")
+    image = _require(doc, "image", path, str)
+    resolution = _require(doc, "resolution", path, float)
+    if resolution <= 0:
+        raise MapError(f"{path}: field 'resolution' must be > 0, got {resolution}")
+    origin = doc.get("origin")
+    if origin is None:
+        raise MapError(f"{path}: the map YAML has no 'origin' field")
+    try:
+        origin = tuple(float(v) for v in origin)
+        if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
+            raise ValueError
+    except (TypeError, ValueError):
+        raise MapError(f"{path}: field 'origin' must be [x, y, yaw], got {doc['origin']!r}") from None
+    negate = _require(doc, "negate", path, int)
+    if negate not in (0, 1):
+        raise MapError(f"{path}: field 'negate' must be 0 or 1, got {negate}")
+    occ = _require(doc, "occupied_thresh", path, float)
+    free = _require(doc, "free_thresh", path, float)
+    for key, v in (("occupied_thresh", occ), ("free_thresh", free)):
+        if not 0.0 <= v <= 1.0:
+            raise MapError(f"{path}: field '{key}' must be within [0, 1], got {v}")
+    if free > occ:
+        raise MapError(f"{path}: field 'free_thresh' ({free}) is above 'occupied_thresh' ({occ})")
+    mode = doc.get("mode", "trinary")
+    if mode not in MODES:
+        raise MapError(f"{path}: field 'mode' must be one of {', '.join(MODES)}, got {mode!r}")
+    if not os.path.isabs(image):
+        image = os.path.join(os.path.dirname(os.path.abspath(path)), image)
+    if not os.path.isfile(image):
+        raise MapError(f"{path}: field 'image': image file {image} does not exist")
+    return {"image": image, "resolution": resolution, "origin": origin, "negate": negate,
+            "occupied_thresh": occ, "free_thresh": free, "mode": mode}
+
+
+def image_to_grid(pixels, negate, occupied_thresh, free_thresh, mode):
+    """Pixel array (rows top-down, as read) -> (height, width) int8 OccupancyGrid values.
+
+    Exactly map_server's loop, vectorized: colour channels averaged (alpha averaged in
+    too in trinary mode, as map_server does), optional negate, occ = (255 - v) / 255,
+    thresholds, scale mode's 1 + 98 * ratio (truncated toward zero as C's int cast),
+    raw mode's plain value, and the rows flipped so row 0 is the lowest.
+    """
+    img = np.asarray(pixels)
+    if img.dtype != np.uint8:
+        raise MapError(f"image has {img.dtype} pixels; map_server reads 8-bit images")
+    if img.ndim == 2:
+        img = img[:, :, None]
+    n_channels = img.shape[2]
+    has_alpha = n_channels in (2, 4)
+    avg_channels = n_channels if (mode == "trinary" or not has_alpha) else n_channels - 1
+    color = img[:, :, :avg_channels].astype(np.float64).sum(axis=2) / avg_channels
+    alpha = img[:, :, -1].astype(np.float64) if has_alpha else np.full(color.shape, 1.0)
+    if negate:
+        color = 255.0 - color
+    if mode == "raw":
+        value = np.trunc(color).astype(np.int32)
+    else:
+        occ = (255.0 - color) / 255.0
+        value = np.full(color.shape, UNKNOWN, np.int32)
+        scaled = (mode == "scale") & (alpha >= 1.0)
+        if mode == "scale":
+            ratio = (occ - free_thresh) / max(occupied_thresh - free_thresh, 1e-12)
+            mid = np.trunc(1.0 + 98.0 * ratio).astype(np.int32)
+            value = np.where(scaled, mid, value)
+        value = np.where(occ < free_thresh, FREE, value)
+        value = np.where(occ > occupied_thresh, OCCUPIED, value)
+    # int8 wrap-around for raw values > 127, as the C++ assignment into int8 data does.
+    return value[::-1].astype(np.uint8).view(np.int8).copy()
+
+
+def load_map(yaml_path):
+    """Load a map_server YAML + image into a GridMap (see image_to_grid)."""
+    meta = read_map_yaml(yaml_path)
+    pixels = cv2.imread(meta["image"], cv2.IMREAD_UNCHANGED)
+    if pixels is None:
+        raise MapError(f"{yaml_path}: field 'image': cannot read {meta['image']} as an image")
+    # OpenCV gives BGR(A): the channel order does not matter to an average, and alpha
+    # stays last as map_server expects.
+    try:
+        data = image_to_grid(pixels, meta["negate"], meta["occupied_thresh"],
+                             meta["free_thresh"], meta["mode"])
+    except MapError as e:
+        raise MapError(f"{yaml_path}: field 'image': {e}") from None
+    return GridMap(data=data, resolution=meta["resolution"], origin=meta["origin"], source=meta)
+
+
+def grid_to_pgm(data, occupied_threshold=SAVER_OCCUPIED_THRESHOLD, free_threshold=SAVER_FREE_THRESHOLD):
+    """OccupancyGrid values -> map_saver's trinary pixels (rows top-down, uint8)."""
+    data = np.asarray(data, dtype=np.int16)
+    img = np.full(data.shape, PGM_UNKNOWN, np.uint8)
+    img[(data >= 0) & (data <= free_threshold)] = PGM_FREE
+    img[data >= occupied_threshold] = PGM_OCCUPIED
+    return img[::-1].copy()
+
+
+def _atomic_write(path, payload):
+    """Write bytes to path via a temporary file in the same folder and a rename."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(payload)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_map(grid, base_path, occupied_threshold=SAVER_OCCUPIED_THRESHOLD,
+             free_threshold=SAVER_FREE_THRESHOLD):
+    """Write ``<base_path>.pgm`` and ``<base_path>.yaml`` as ROS map_saver does.
+
+    Both files are written atomically (temporary file + rename), the image first, so a
+    failure leaves any earlier map with this name intact. Raises MapError naming the path
+    when the folder does not exist or cannot be written.
+    Returns (pgm_path, yaml_path).
+    """
+    folder = os.path.dirname(os.path.abspath(base_path))
+    if not os.path.isdir(folder):
+        raise MapError(f"{base_path}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise MapError(f"{base_path}: folder {folder} is not writable")
+    pgm_path, yaml_path = base_path + ".pgm", base_path + ".yaml"
+    img = grid_to_pgm(grid.data, occupied_threshold, free_threshold)
+    header = (f"P5\n# CREATOR: map_saver.cpp {grid.resolution:.3f} m/pix\n"
+              f"{img.shape[1]} {img.shape[0]}\n255\n").encode()
+    ox, oy, oyaw = grid.origin
+    text = (f"image: {os.path.basename(pgm_path)}\nresolution: {grid.resolution:f}\n"
+            f"origin: [{ox:f}, {oy:f}, {oyaw:f}]\nnegate: 0\n"
+            f"occupied_thresh: {SAVER_OCCUPIED_THRESH}\nfree_thresh: {SAVER_FREE_THRESH}\n\n")
+    try:
+        _atomic_write(pgm_path, header + img.tobytes())
+        _atomic_write(yaml_path, text.encode())
+    except OSError as e:
+        raise MapError(f"{base_path}: cannot write map: {e}") from None
+    return pgm_path, yaml_path

@@ -1,0 +1,223 @@
+"""The simulation core: robots moving in a World, with odometry, laser and collisions.
+
+No ROS here: the node (nodes/summit_xl_sim) steps this core in simulated time and turns
+its state into messages. Everything is deterministic for a given seed.
+
+Collisions: every step the robot's footprint at its new pose is checked against the
+walls (footprint sampled at half a cell), the boxes and the other robots (separating
+axis test). A blocked move does not happen: the robot keeps its pose, its velocity drops
+to zero, and one collision is counted per contact (a robot pushing against a wall for a
+second counts once).
+"""
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import robot as rb
+from .world import World, WorldError, rects_overlap
+
+DRIVES = ("diff", "omni")
+
+
+@dataclass
+class LaserParams:
+    """Hokuyo UTM-30LX-like laser (SPEC.md), mounted at ``mount`` in base_footprint."""
+
+    n_beams: int = 1081
+    angle_min: float = -2.356194490192345   # [rad] (-135 deg)
+    angle_max: float = 2.356194490192345    # [rad] (+135 deg)
+    range_min: float = 0.10                 # [m]
+    range_max: float = 30.0                 # [m]
+    noise_sigma: float = 0.01               # Gaussian range noise [m]
+    rate: float = 40.0                      # [Hz] of simulated time
+    mount: tuple = (0.25, 0.0, 0.0)         # (x [m], y [m], yaw [rad]) in base_footprint
+
+    @property
+    def angle_increment(self):
+        """Angle between consecutive beams [rad]."""
+        return (self.angle_max - self.angle_min) / (self.n_beams - 1)
+
+    def angles(self):
+        """Beam angles (n_beams,) [rad] in the laser frame."""
+        return np.linspace(self.angle_min, self.angle_max, self.n_beams)
+
+
+@dataclass
+class RobotState:
+    """One simulated robot: true pose, odometry pose, velocities, command, counters."""
+
+    name: str
+    drive: str
+    params: rb.RobotParams
+    laser: LaserParams
+    pose: tuple                       # ground truth (x, y, yaw) in the world [m, rad]
+    odom_pose: tuple = (0.0, 0.0, 0.0)  # odometry's estimate, in the odom frame
+    vel: tuple = (0.0, 0.0, 0.0)      # body velocity (vx, vy, wz) [m/s, rad/s]
+    cmd: tuple = (0.0, 0.0, 0.0)      # last accepted command
+    last_cmd_time: float = -math.inf  # sim time of the last command [s]
+    collisions: int = 0
+    in_contact: bool = False
+    odom_vel: tuple = (0.0, 0.0, 0.0)
+    rng: np.random.Generator = field(default=None, repr=False)
+
+    def rect(self):
+        """Footprint as an oriented rectangle (cx, cy, yaw, half_length, half_width)."""
+        x, y, yaw = self.pose
+        return (x, y, yaw, self.params.length / 2.0, self.params.width / 2.0)
+
+
+class Simulation:
+    """Robots in a world, stepped in simulated time.
+
+    world: a World; seed: int for every random draw (odometry drift, laser noise).
+    """
+
+    def __init__(self, world, seed=0):
+        self.world = world
+        self.time = 0.0
+        self.robots = {}
+        self._seed = seed
+        self._samples = {}
+
+    # -- robots -------------------------------------------------------------------
+    def add_robot(self, name, x, y, yaw, drive="diff", params=None, laser=None):
+        """Spawn a robot; WorldError naming it when the pose is off the map or blocked."""
+        if name in self.robots:
+            raise WorldError(f"robot '{name}' already exists")
+        if drive not in DRIVES:
+            raise WorldError(f"robot '{name}': drive must be one of {DRIVES}, got {drive!r}")
+        params = params or rb.RobotParams()
+        state = RobotState(name=name, drive=drive, params=params, laser=laser or LaserParams(),
+                           pose=(float(x), float(y), rb.wrap_angle(float(yaw))),
+                           rng=np.random.default_rng([self._seed, len(self.robots)]))
+        self._check_free(state, state.pose, spawning=True)
+        self.robots[name] = state
+        return state
+
+    def _footprint_points(self, params):
+        key = (params.length, params.width)
+        if key not in self._samples:
+            self._samples[key] = rb.footprint_samples(params, self.world.resolution / 2.0)
+        return self._samples[key]
+
+    def blocked_by(self, state, pose):
+        """What the footprint at ``pose`` would hit: None, 'wall', 'box <name>', 'robot <name>'."""
+        x, y, yaw = pose
+        # Cheap gate: far from every wall cell no footprint point can be in one.
+        if self.world.clearance(x, y) <= state.params.circumradius + self.world.resolution:
+            pts = rb.transform_points(self._footprint_points(state.params), x, y, yaw)
+            if self.world.points_hit_walls(pts):
+                return "wall"
+        rect = (x, y, yaw, state.params.length / 2.0, state.params.width / 2.0)
+        reach = state.params.circumradius
+        for name, box in self.world.boxes.items():
+            if math.hypot(box[0] - x, box[1] - y) <= reach + math.hypot(box[3], box[4]):
+                if rects_overlap(rect, box):
+                    return f"box {name}"
+        for other in self.robots.values():
+            if other is state:
+                continue
+            if math.hypot(other.pose[0] - x, other.pose[1] - y) <= reach + other.params.circumradius:
+                if rects_overlap(rect, other.rect()):
+                    return f"robot {other.name}"
+        return None
+
+    def _check_free(self, state, pose, spawning=False):
+        x, y, yaw = pose
+        if not all(math.isfinite(v) for v in pose):
+            raise WorldError(f"robot '{state.name}': pose ({x}, {y}, {yaw}) is not finite")
+        if not self.world.on_map(x, y):
+            xmin, ymin, xmax, ymax = self.world.bounds()
+            raise WorldError(f"robot '{state.name}': pose ({x:.2f}, {y:.2f}) is off the map "
+                             f"(x {xmin:.2f}..{xmax:.2f}, y {ymin:.2f}..{ymax:.2f})")
+        what = self.blocked_by(state, pose)
+        if what is not None:
+            verb = "spawn" if spawning else "place"
+            raise WorldError(f"robot '{state.name}': cannot {verb} at ({x:.2f}, {y:.2f}, "
+                             f"{math.degrees(yaw):.1f} deg): the footprint overlaps a {what}")
+
+    def set_pose(self, name, x, y, yaw):
+        """Teleport a robot (ground truth only; odometry does not see it, as a kidnapping)."""
+        state = self.robot(name)
+        pose = (float(x), float(y), rb.wrap_angle(float(yaw)))
+        self._check_free(state, pose)
+        state.pose = pose
+        state.vel = (0.0, 0.0, 0.0)
+        state.in_contact = False
+
+    def add_box(self, name, cx, cy, yaw, size_x, size_y):
+        """Add or move a box [m, rad]; WorldError when it would overlap a robot."""
+        box = (float(cx), float(cy), float(yaw), float(size_x) / 2.0, float(size_y) / 2.0)
+        for state in self.robots.values():
+            if math.isfinite(box[0] + box[1] + box[2]) and rects_overlap(state.rect(), box):
+                raise WorldError(f"box '{name}' would overlap robot '{state.name}'")
+        self.world.add_box(name, cx, cy, yaw, size_x, size_y)
+
+    def robot(self, name):
+        """The RobotState called ``name``; WorldError listing the robots otherwise."""
+        if name not in self.robots:
+            raise WorldError(f"no robot named '{name}' (robots: {', '.join(self.robots)})")
+        return self.robots[name]
+
+    def command(self, name, vx, vy, wz):
+        """Accept a body-velocity command; returns None, or why it was ignored."""
+        state = self.robot(name)
+        vx, vy, wz, problem = rb.sanitize_command(state.params, state.drive, vx, vy, wz)
+        if problem:
+            return problem
+        state.cmd = (vx, vy, wz)
+        state.last_cmd_time = self.time
+        return None
+
+    # -- time -----------------------------------------------------------------------
+    def step(self, dt):
+        """Advance every robot by dt [s] of simulated time."""
+        self.time += dt
+        for state in self.robots.values():
+            cmd = state.cmd
+            if self.time - state.last_cmd_time > state.params.cmd_timeout:
+                cmd = (0.0, 0.0, 0.0)  # watchdog: stale command
+            vel = rb.step_velocity(state.params, state.vel, cmd, dt)
+            if vel == (0.0, 0.0, 0.0):
+                state.vel = vel
+                state.odom_vel = vel
+                continue
+            new_pose = rb.integrate_pose(state.pose, vel, dt)
+            if self.blocked_by(state, new_pose) is not None:
+                if not state.in_contact:
+                    state.collisions += 1
+                state.in_contact = True
+                state.vel = (0.0, 0.0, 0.0)
+                state.odom_vel = state.vel
+                continue
+            state.in_contact = False
+            inc = rb.body_increment(state.pose, new_pose)
+            state.odom_pose = rb.compose(state.odom_pose, rb.noisy_increment(state.params, inc, state.rng))
+            state.pose = new_pose
+            state.vel = vel
+            state.odom_vel = vel
+
+    # -- sensing ----------------------------------------------------------------------
+    def laser_pose(self, state):
+        """World pose (x, y, yaw) of the robot's laser."""
+        mx, my, myaw = state.laser.mount
+        return rb.compose(state.pose, (mx, my, myaw))
+
+    def scan(self, name, noise=True):
+        """One laser scan of robot ``name``: ranges (n_beams,) float32 [m].
+
+        Beams with no return within range_max report +inf (REP 117); noisy ranges are
+        clipped to [range_min, range_max].
+        """
+        state = self.robot(name)
+        lx, ly, lyaw = self.laser_pose(state)
+        laser = state.laser
+        others = [o.rect() for o in self.robots.values() if o is not state]
+        ranges = self.world.cast(lx, ly, laser.angles() + lyaw, laser.range_max, others)
+        no_return = ranges >= laser.range_max
+        if noise and laser.noise_sigma > 0:
+            ranges = ranges + state.rng.normal(0.0, laser.noise_sigma, ranges.shape)
+        ranges = np.clip(ranges, laser.range_min, laser.range_max)
+        ranges[no_return] = np.inf
+        return ranges.astype(np.float32)
