@@ -7,7 +7,8 @@ Collisions: every step the robot's footprint at its new pose is checked against 
 walls (footprint sampled at half a cell), the boxes and the other robots (separating
 axis test). A blocked move does not happen: the robot keeps its pose, its velocity drops
 to zero, and one collision is counted per contact (a robot pushing against a wall for a
-second counts once).
+second counts once: a new collision is counted only after the robot has moved
+CONTACT_RESET freely since the last blocked move).
 """
 import math
 from dataclasses import dataclass, field
@@ -18,6 +19,8 @@ from . import robot as rb
 from .world import World, WorldError, rects_overlap
 
 DRIVES = ("diff", "omni")
+# Free travel [m] (footprint corners' path) after which a new block counts as a new collision.
+CONTACT_RESET = 0.05
 
 
 @dataclass
@@ -58,6 +61,7 @@ class RobotState:
     last_cmd_time: float = -math.inf  # sim time of the last command [s]
     collisions: int = 0
     in_contact: bool = False
+    free_travel: float = 0.0          # [m] moved since the last blocked move
     odom_vel: tuple = (0.0, 0.0, 0.0)
     rng: np.random.Generator = field(default=None, repr=False)
 
@@ -145,6 +149,7 @@ class Simulation:
         state.pose = pose
         state.vel = (0.0, 0.0, 0.0)
         state.in_contact = False
+        state.free_travel = 0.0
 
     def add_box(self, name, cx, cy, yaw, size_x, size_y):
         """Add or move a box [m, rad]; WorldError when it would overlap a robot."""
@@ -188,11 +193,14 @@ class Simulation:
                 if not state.in_contact:
                     state.collisions += 1
                 state.in_contact = True
+                state.free_travel = 0.0
                 state.vel = (0.0, 0.0, 0.0)
                 state.odom_vel = state.vel
                 continue
-            state.in_contact = False
             inc = rb.body_increment(state.pose, new_pose)
+            state.free_travel += math.hypot(inc[0], inc[1]) + abs(inc[2]) * state.params.circumradius
+            if state.free_travel > CONTACT_RESET:
+                state.in_contact = False
             state.odom_pose = rb.compose(state.odom_pose, rb.noisy_increment(state.params, inc, state.rng))
             state.pose = new_pose
             state.vel = vel

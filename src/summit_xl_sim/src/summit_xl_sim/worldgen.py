@@ -83,7 +83,9 @@ def draw(doc):
     img = np.full((height, width), PGM_UNKNOWN, np.uint8)
 
     def px(x, y):  # world [m] -> fixed-point pixel coordinates (x right, y down)
-        return (int(round((x - ox) / res * SCALE)), int(round((height - (y - oy) / res) * SCALE)))
+        # OpenCV puts pixel centres on integer coordinates, hence the half-pixel shift.
+        return (int(round(((x - ox) / res - 0.5) * SCALE)),
+                int(round((height - (y - oy) / res - 0.5) * SCALE)))
 
     def poly(corners, value):
         pts = np.array([px(x, y) for x, y in corners], np.int32)

@@ -1,0 +1,77 @@
+"""Ray casting: the fast kernel against the slow traversal oracle, and rectangles."""
+import math
+import os
+
+import numpy as np
+import pytest
+
+from summit_xl_sim import raycast
+from summit_xl_sim.world import World
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+BUILTIN = os.path.join(HERE, "..", "worlds", "course_building.yaml")
+WILLOW = os.path.join(HERE, "..", "..", "..", "..", "shared", "data", "maps", "willow-full.yaml")
+ANGLES = np.linspace(-2.356194490192345, 2.356194490192345, 1081)
+
+
+@pytest.mark.parametrize("path", [BUILTIN, WILLOW])
+def test_fast_matches_oracle(path):
+    world = World.from_yaml(path)
+    rng = np.random.default_rng(7)
+    ys, xs = np.nonzero((world.dist > 1.0) & (world.grid.data == 0))  # known free space
+    tmax = 30.0 / world.resolution
+    for k in rng.choice(len(xs), 12, replace=False):
+        ox, oy = xs[k] + rng.random(), ys[k] + rng.random()
+        ang = ANGLES + rng.uniform(-math.pi, math.pi)
+        fast = raycast.cast_rays(world.walls, world.dist, ox, oy, ang, tmax)
+        slow = raycast.cast_rays_reference(world.walls, ox, oy, ang, tmax)
+        np.testing.assert_allclose(fast, slow, atol=1e-9)
+        assert (fast < tmax).mean() > 0.3  # the test sees walls, not only open space
+
+
+def test_known_distances_in_a_box():
+    occ = np.zeros((20, 20), bool)
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
+    dist = raycast.distance_field(occ)
+    r = raycast.cast_rays(occ, dist, 10.0, 10.0, np.array([0.0, math.pi / 2, math.pi, -math.pi / 2]), 100.0)
+    # Walls occupy cells 0 and 19: their inner faces are at 1 and 19.
+    np.testing.assert_allclose(r, [9.0, 9.0, 9.0, 9.0])
+    diag = raycast.cast_rays(occ, dist, 10.0, 10.0, np.array([math.pi / 4]), 100.0)
+    np.testing.assert_allclose(diag, [9.0 * math.sqrt(2)])
+
+
+def test_ray_leaving_the_grid_and_tmax():
+    occ = np.zeros((10, 10), bool)
+    dist = raycast.distance_field(occ)
+    r = raycast.cast_rays(occ, dist, 5.0, 5.0, np.array([0.0, 1.0]), 50.0)
+    np.testing.assert_array_equal(r, [50.0, 50.0])
+    occ[5, 9] = True
+    dist = raycast.distance_field(occ)
+    assert raycast.cast_rays(occ, dist, 5.5, 5.5, np.array([0.0]), 2.0)[0] == 2.0
+
+
+def test_rectangles_against_sampling():
+    rng = np.random.default_rng(3)
+    rects = np.array([[2.0, 0.5, 0.3, 0.4, 0.2], [-1.0, -2.0, -1.0, 0.3, 0.3]])
+    ang = rng.uniform(-math.pi, math.pi, 400)
+    got = raycast.rect_ray_distances(0.1, -0.2, ang, rects, 10.0)
+    # Brute force: march 1 mm steps and test point-in-rectangle.
+    t = np.arange(0, 10.0, 0.001)
+    for a, g in zip(ang[:60], got[:60]):
+        px, py = 0.1 + t * math.cos(a), -0.2 + t * math.sin(a)
+        inside = np.zeros_like(t, bool)
+        for cx, cy, yaw, hx, hy in rects:
+            lx = math.cos(yaw) * (px - cx) + math.sin(yaw) * (py - cy)
+            ly = -math.sin(yaw) * (px - cx) + math.cos(yaw) * (py - cy)
+            inside |= (np.abs(lx) <= hx) & (np.abs(ly) <= hy)
+        expect = t[np.argmax(inside)] if inside.any() else 10.0
+        assert g == pytest.approx(expect, abs=0.002)
+
+
+def test_distance_field_is_euclidean():
+    occ = np.zeros((9, 9), bool)
+    occ[4, 4] = True
+    d = raycast.distance_field(occ)
+    assert d[4, 4] == 0
+    assert d[4, 7] == pytest.approx(3.0, abs=1e-3)
+    assert d[0, 0] == pytest.approx(math.hypot(4, 4), abs=1e-2)
