@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """`make frames`: the tf tree of the simulated Summit XL as output/frames.pdf and .png.
 
 What the course's first step does by hand ("rosrun tf2_tools view_frames.py" while the
@@ -23,14 +23,10 @@ import subprocess
 import sys
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from roslaunch_session import free_port, stop_process_tree  # noqa: E402
+
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def free_port():
-    """A TCP port nobody listens on now (the kernel's pick for an ephemeral bind)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def ros_env(port):
@@ -43,60 +39,11 @@ def ros_env(port):
     return env
 
 
-def descendants(pid):
-    """PIDs of all processes below pid (read from /proc)."""
-    children = {}
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open("/proc/%s/stat" % entry) as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-        except (OSError, IndexError, ValueError):
-            continue
-        children.setdefault(ppid, []).append(int(entry))
-    out, todo = [], [pid]
-    while todo:
-        for c in children.get(todo.pop(), []):
-            out.append(c)
-            todo.append(c)
-    return out
-
-
 def stop_group(proc, name, grace=20.0):
-    """SIGINT the process group of proc (roslaunch's own clean shutdown, which escalates
-    to SIGTERM/SIGKILL for its nodes after 15 s), then SIGKILL the group and every process
-    that was below proc: roslaunch starts each node in a session of its own, so a node
-    that hangs on shutdown would survive a group kill."""
-    if proc is None or proc.poll() is not None:
-        return
-    below = descendants(proc.pid)
-    pgid = proc.pid  # start_new_session: the leader's pid is the group id
-    try:
-        os.killpg(pgid, signal.SIGINT)
-        proc.wait(timeout=grace)
-    except ProcessLookupError:
-        pass
-    except subprocess.TimeoutExpired:
-        print("frames: %s did not stop on SIGINT within %.0f s; killing it" % (name, grace),
-              flush=True)
-    try:
-        os.killpg(pgid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    left = []
-    for pid in below:
-        try:
-            os.kill(pid, signal.SIGKILL)
-            left.append(pid)
-        except ProcessLookupError:
-            pass
-    if left:
-        print("frames: killed leftover processes %s" % left, flush=True)
-    try:
-        proc.wait(timeout=5)
-    except subprocess.TimeoutExpired:
-        pass
+    """Stop a launched process tree (see roslaunch_session.stop_process_tree)."""
+    if proc is not None and proc.poll() is None:
+        print("frames: stopping %s" % name, flush=True)
+    stop_process_tree(proc, grace)
 
 
 def wait_for_tf(env, launch, deadline):

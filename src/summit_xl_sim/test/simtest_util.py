@@ -1,0 +1,49 @@
+"""Helpers for the simulator's rostest nodes: wait in simulated time, latest messages."""
+import math
+import threading
+
+import rospy
+
+
+def yaw_of(q):
+    """Yaw [rad] of a geometry_msgs/Quaternion."""
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+
+
+class Latest:
+    """Keeps the last message of a topic and counts messages (thread-safe)."""
+
+    def __init__(self, topic, msg_type):
+        self.msg, self.count = None, 0
+        self.lock = threading.Lock()
+        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=50)
+
+    def _cb(self, msg):
+        with self.lock:
+            self.msg = msg
+            self.count += 1
+
+    def wait(self, timeout_wall=30.0):
+        """Block until a first message arrives; AssertionError on timeout."""
+        import time
+        end = time.monotonic() + timeout_wall
+        while self.msg is None:
+            if time.monotonic() > end:
+                raise AssertionError(f"no message on {self.sub.name} within {timeout_wall} s")
+            time.sleep(0.02)
+        return self.msg
+
+
+def wait_clock(timeout_wall=30.0):
+    """Wait until /clock has started (sim time > 0)."""
+    import time
+    end = time.monotonic() + timeout_wall
+    while rospy.Time.now().to_sec() <= 0.0:
+        if time.monotonic() > end:
+            raise AssertionError("no /clock within %.0f s" % timeout_wall)
+        time.sleep(0.02)
+
+
+def sleep_sim(seconds):
+    """Sleep in simulated time."""
+    rospy.sleep(rospy.Duration.from_sec(seconds))

@@ -1,0 +1,43 @@
+"""Runs every rostest .test file of the workspace, one pytest case each.
+
+rostest starts its own ROS master on a free port and stops everything it launched, also
+on failure; the time-limit in each .test bounds its test node, and TIMEOUT bounds the
+whole run here (the process group is killed when it is exceeded).
+"""
+import glob
+import os
+import re
+import signal
+import subprocess
+
+import pytest
+
+WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TIMEOUT = 600  # [s] wall time for one rostest run
+TEST_FILES = sorted(glob.glob(os.path.join(WS, "src", "*", "test", "*.test")))
+
+
+def package_of(path):
+    return os.path.basename(os.path.dirname(os.path.dirname(path)))
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("test_file", TEST_FILES,
+                         ids=[f"{package_of(p)}/{os.path.basename(p)}" for p in TEST_FILES])
+def test_rostest(test_file, tmp_path):
+    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path))
+    proc = subprocess.Popen(["rostest", package_of(test_file), os.path.basename(test_file)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                            start_new_session=True)
+    try:
+        out, _ = proc.communicate(timeout=TIMEOUT)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, _ = proc.communicate()
+        pytest.fail(f"rostest {test_file} did not finish within {TIMEOUT} s\n{out[-6000:]}")
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0 and "RESULT: SUCCESS" in out, out[-8000:]
+    counts = [int(m) for m in re.findall(r"\* TESTS: (\d+)", out)]
+    assert counts and counts[-1] > 0, "rostest ran no test case:\n" + out[-4000:]

@@ -1,0 +1,199 @@
+#!/usr/bin/python3
+"""`make bench`: performance benchmarks, printed as a table and written as JSON.
+
+Benchmarks measure; they do not pass or fail (the tests stay free of wall-clock
+thresholds). Each figure is the median of several runs; peak resident memory is given
+beside each time. Sections:
+  laser       simulated scans per second (1081 beams) on the built-in world and on
+              willow-full, one core, the simulator's ray casting alone
+  sim_rtf     the simulator's real-time factor with one robot, running as fast as it can
+              with every topic subscribed (/clock, /tf, /odom, ground truth, 40 Hz scans)
+  slam_carmen the SLAM core offline on the CARMEN Intel and ACES logs (when present)
+
+    make bench                      all sections
+    make bench BENCH_ARGS="--only laser --runs 3"
+"""
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from roslaunch_session import RoslaunchSession, wait_for  # noqa: E402
+
+WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+OUT = os.path.join(WS, "output")
+SHARED = os.path.normpath(os.path.join(WS, "..", "shared", "data"))
+WORLDS = {
+    "built-in course building": os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.yaml"),
+    "willow-full (0.1 m)": os.path.join(SHARED, "maps", "willow-full.yaml"),
+    "willow-full-0.05": os.path.join(SHARED, "maps", "willow-full-0.05.yaml"),
+}
+
+
+def peak_rss_mb():
+    """Peak resident memory of this process so far [MB]."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def bench_laser(runs, scans_per_run=500):
+    """Scans per second of World.cast with 1081 beams from random free poses."""
+    from summit_xl_sim.sim import LaserParams
+    from summit_xl_sim.world import World
+
+    rows = []
+    angles = LaserParams().angles()
+    for name, path in WORLDS.items():
+        if not os.path.exists(path):
+            rows.append({"world": name, "skipped": f"{path} missing"})
+            continue
+        world = World.from_yaml(path)
+        rng = np.random.default_rng(0)
+        ys, xs = np.nonzero((world.dist * world.resolution > 0.4) & (world.grid.data == 0))
+        sel = rng.choice(len(xs), scans_per_run)
+        poses = [world.grid.cell_to_world(xs[k], ys[k]) + (rng.uniform(-np.pi, np.pi),) for k in sel]
+        world.cast(poses[0][0], poses[0][1], angles, 30.0)  # compile / warm up
+        rates = []
+        for _ in range(runs):
+            t0 = time.process_time()
+            for x, y, yaw in poses:
+                world.cast(x, y, angles + yaw, 30.0)
+            rates.append(scans_per_run / (time.process_time() - t0))
+        rows.append({"world": name, "cells": f"{world.grid.width} x {world.grid.height}",
+                     "scans_per_s": statistics.median(rates), "runs": [round(r) for r in rates],
+                     "peak_rss_mb": peak_rss_mb()})
+    return rows
+
+
+def bench_sim_rtf_once(seconds=20.0):
+    """Real-time factor of the simulator node at speed 0 (as fast as it can), one run.
+
+    rospy binds a process to one master, so each run is a child process (see
+    bench_sim_rtf_runs) with its own launch.
+    """
+    import psutil
+    import rospy
+    from nav_msgs.msg import Odometry
+    from rosgraph_msgs.msg import Clock
+    from rospy.numpy_msg import numpy_msg
+    from sensor_msgs.msg import LaserScan
+    from tf2_msgs.msg import TFMessage
+
+    log = os.path.join(OUT, "bench_sim_rtf.log")
+    with RoslaunchSession(["summit_xl_sim", "sim.launch", "speed:=0"], log=log) as session:
+        rospy.init_node("bench", anonymous=True, disable_signals=True)
+        counts = {"scan": 0, "odom": 0, "truth": 0, "tf": 0, "clock": 0}
+        latest = {"t": 0.0}
+        lock = threading.Lock()
+
+        def counter(key):
+            def cb(msg):
+                with lock:
+                    counts[key] += 1
+                    if key == "clock":
+                        latest["t"] = msg.clock.to_sec()
+            return cb
+
+        rospy.Subscriber("/hokuyo_base/scan", numpy_msg(LaserScan), counter("scan"), queue_size=100)
+        rospy.Subscriber("/odom", Odometry, counter("odom"), queue_size=100)
+        rospy.Subscriber("/base_pose_ground_truth", Odometry, counter("truth"), queue_size=100)
+        rospy.Subscriber("/tf", TFMessage, counter("tf"), queue_size=100)
+        rospy.Subscriber("/clock", Clock, counter("clock"), queue_size=100)
+        wait_for(lambda: counts["scan"] > 0, 60, "the first scan", session)
+        sim = next(p for p in psutil.Process(session.proc.pid).children(recursive=True)
+                   if "summit_xl_sim/summit_xl_sim" in " ".join(p.cmdline()))
+        cpu0 = sum(sim.cpu_times()[:2])
+        with lock:
+            t0, c0 = latest["t"], dict(counts)
+        w0 = time.monotonic()
+        time.sleep(seconds)
+        with lock:
+            t1, c1 = latest["t"], dict(counts)
+        w1 = time.monotonic()
+        cpu1 = sum(sim.cpu_times()[:2])
+        rss = sim.memory_info().rss / 1e6
+    sim_s = max(t1 - t0, 1e-9)
+    return {"rtf": sim_s / (w1 - w0), "sim_cpu_s_per_sim_s": (cpu1 - cpu0) / sim_s,
+            "scan_hz_sim": (c1["scan"] - c0["scan"]) / sim_s, "odom_hz_sim": (c1["odom"] - c0["odom"]) / sim_s,
+            "clock_hz_sim": (c1["clock"] - c0["clock"]) / sim_s, "sim_rss_mb": rss}
+
+
+def bench_sim_rtf_runs(runs):
+    """Runs bench_sim_rtf in `runs` child processes (one ROS master each); medians."""
+    rows = []
+    for _ in range(runs):
+        r = subprocess.run([sys.executable, __file__, "--only", "sim_rtf_child"], stdout=subprocess.PIPE,
+                           stderr=subprocess.DEVNULL, text=True, timeout=300)
+        line = [l for l in r.stdout.splitlines() if l.startswith("{")]
+        if r.returncode != 0 or not line:
+            raise RuntimeError(f"simulator benchmark child failed:\n{r.stdout[-2000:]}")
+        rows.append(json.loads(line[-1]))
+    med = {k: statistics.median(r[k] for r in rows) for k in rows[0]}
+    med["runs_rtf"] = [round(r["rtf"], 1) for r in rows]
+    return med
+
+
+def bench_slam_carmen():
+    script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_carmen.py")
+    if not os.path.exists(script):
+        return None
+    path = os.path.join(OUT, "bench_slam_carmen.json")
+    subprocess.run([sys.executable, script, "--json", path, "--out", OUT], check=True)
+    with open(path) as f:
+        return json.load(f)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen (repeatable)")
+    ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
+    args = ap.parse_args()
+    if args.only == ["sim_rtf_child"]:
+        print(json.dumps(bench_sim_rtf_once()))
+        return 0
+    only = set(args.only or ["laser", "sim_rtf", "slam_carmen"])
+    os.makedirs(OUT, exist_ok=True)
+    report = {"machine": {"cores": os.cpu_count(), "python": sys.version.split()[0]}}
+    lines = ["| benchmark | figure | target | peak RSS [MB] |", "| --- | --- | --- | --- |"]
+    if "laser" in only:
+        report["laser"] = bench_laser(args.runs)
+        for r in report["laser"]:
+            if "skipped" in r:
+                continue
+            target = {"built-in course building": ">= 2000", "willow-full (0.1 m)": ">= 1000"}.get(r["world"], "-")
+            lines.append(f"| laser scans/s, 1081 beams, {r['world']} ({r['cells']}) | "
+                         f"{r['scans_per_s']:.0f} | {target} | {r['peak_rss_mb']:.0f} |")
+    if "sim_rtf" in only:
+        med = bench_sim_rtf_runs(max(1, min(args.runs, 3)))
+        report["sim_rtf"] = med
+        lines.append(f"| simulator real-time factor, 1 robot, all topics subscribed | {med['rtf']:.1f}x "
+                     f"(runs {med['runs_rtf']}; {med['sim_cpu_s_per_sim_s'] * 1000:.0f} ms CPU per sim s; "
+                     f"scan {med['scan_hz_sim']:.1f} Hz, odom {med['odom_hz_sim']:.1f} Hz, clock "
+                     f"{med['clock_hz_sim']:.0f} Hz sim) | >= 20x | {med['sim_rss_mb']:.0f} |")
+    if "slam_carmen" in only:
+        res = bench_slam_carmen()
+        if res is not None:
+            report["slam_carmen"] = res
+            for r in res["results"]:
+                lines.append(f"| SLAM core offline, CARMEN {r['log']}, {r['particles']} particles: ATE RMSE "
+                             f"SLAM / drifted odometry [m] | {r['ate_slam_m']:.3f} / {r['ate_odom_m']:.3f} "
+                             f"({r['cpu_ms_per_processed_scan']:.0f} ms CPU per scan, {r['processed_scans']} scans) | "
+                             f"{'<= 0.10' if r['log'] == 'intel' else '-'} | {r['peak_rss_mb']:.0f} |")
+    path = os.path.join(OUT, "bench.json")
+    with open(path + ".tmp", "w") as f:
+        json.dump(report, f, indent=2)
+    os.replace(path + ".tmp", path)
+    print("\n".join(lines))
+    print(f"\nJSON: {os.path.relpath(path, WS)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,96 @@
+"""Start a roslaunch on a private ROS master and always stop it (demo, bench, frames).
+
+    with RoslaunchSession(["summit_xl_sim", "tour.launch", "speed:=8"], log=path) as s:
+        ...  # s.env has ROS_MASTER_URI; rospy in this process uses it when set before init
+
+The launch runs in its own process group; on exit it gets SIGINT, then SIGKILL for the
+group and for every process that was below it (roslaunch gives nodes their own sessions).
+"""
+import os
+import signal
+import socket
+import subprocess
+import time
+
+import psutil
+
+
+def free_port():
+    """A TCP port that was free a moment ago."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def stop_process_tree(proc, grace=20.0):
+    """Stop a subprocess started with start_new_session=True, and all below it.
+
+    roslaunch starts each node in a session of its own, so a node that hangs on
+    shutdown would survive a plain group kill: its PID is collected first and killed.
+    """
+    if proc is None or proc.poll() is not None:
+        return
+    try:
+        below = psutil.Process(proc.pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        below = []
+    try:
+        os.killpg(proc.pid, signal.SIGINT)
+        proc.wait(timeout=grace)
+    except (ProcessLookupError, subprocess.TimeoutExpired):
+        pass
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    for p in below:
+        try:
+            p.kill()
+        except psutil.NoSuchProcess:
+            pass
+    try:
+        proc.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        pass
+
+
+class RoslaunchSession:
+    """A roslaunch subprocess with its own master (port chosen here)."""
+
+    def __init__(self, args, log=None, env=None):
+        self.port = free_port()
+        self.env = dict(env or os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{self.port}")
+        self.args = ["roslaunch", "-p", str(self.port)] + list(args)
+        self.log_path = log
+        self.proc = None
+
+    def __enter__(self):
+        os.environ["ROS_MASTER_URI"] = self.env["ROS_MASTER_URI"]
+        out = open(self.log_path, "w") if self.log_path else subprocess.DEVNULL
+        self.proc = subprocess.Popen(self.args, stdout=out, stderr=subprocess.STDOUT, env=self.env,
+                                     start_new_session=True)
+        return self
+
+    def alive(self):
+        """True while roslaunch runs."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def stop(self, grace=20.0):
+        """SIGINT the group (roslaunch's clean shutdown), wait up to grace [s], then
+        SIGKILL the group and every process that was below roslaunch."""
+        stop_process_tree(self.proc, grace)
+
+    def __exit__(self, *exc):
+        self.stop()
+        return False
+
+
+def wait_for(predicate, timeout, what, session=None, poll=0.05):
+    """Wait until predicate() is true; RuntimeError naming `what` on timeout or launch death."""
+    end = time.monotonic() + timeout
+    while not predicate():
+        if session is not None and not session.alive():
+            raise RuntimeError(f"the launch ended while waiting for {what} (see {session.log_path})")
+        if time.monotonic() > end:
+            raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
+        time.sleep(poll)
