@@ -7,12 +7,13 @@ whole run here (the process group is killed when it is exceeded).
 import glob
 import os
 import re
-import signal
-import subprocess
+import sys
 
 import pytest
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(WS, "tools"))
+from roslaunch_session import run_bounded  # noqa: E402
 TIMEOUT = 600  # [s] wall time for one rostest run
 TEST_FILES = sorted(glob.glob(os.path.join(WS, "src", "*", "test", "*.test")))
 
@@ -26,18 +27,9 @@ def package_of(path):
                          ids=[f"{package_of(p)}/{os.path.basename(p)}" for p in TEST_FILES])
 def test_rostest(test_file, tmp_path):
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path))
-    proc = subprocess.Popen(["rostest", package_of(test_file), os.path.basename(test_file)],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-                            start_new_session=True)
-    try:
-        out, _ = proc.communicate(timeout=TIMEOUT)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, _ = proc.communicate()
+    rc, out = run_bounded(["rostest", package_of(test_file), os.path.basename(test_file)], env, TIMEOUT)
+    if rc is None:
         pytest.fail(f"rostest {test_file} did not finish within {TIMEOUT} s\n{out[-6000:]}")
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-    assert proc.returncode == 0 and "RESULT: SUCCESS" in out, out[-8000:]
+    assert rc == 0 and "RESULT: SUCCESS" in out, out[-8000:]
     counts = [int(m) for m in re.findall(r"\* TESTS: (\d+)", out)]
     assert counts and counts[-1] > 0, "rostest ran no test case:\n" + out[-4000:]

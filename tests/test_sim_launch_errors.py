@@ -1,19 +1,14 @@
 """Bad input at launch: the simulator fails at once, naming the file or pose and why."""
 import os
-import signal
-import socket
-import subprocess
+import sys
 import time
 
 import pytest
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
+from roslaunch_session import free_port, run_bounded  # noqa: E402
+
 TIMEOUT = 60  # [s]
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def launch(tmp_path, *args):
@@ -22,18 +17,9 @@ def launch(tmp_path, *args):
     env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_LOG_DIR=str(tmp_path / "log"),
                ROS_HOME=str(tmp_path))
     t0 = time.monotonic()
-    proc = subprocess.Popen(["roslaunch", "-p", str(port), "summit_xl_sim", "sim.launch", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-                            start_new_session=True)
-    try:
-        out, _ = proc.communicate(timeout=TIMEOUT)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, _ = proc.communicate()
+    rc, out = run_bounded(["roslaunch", "-p", str(port), "summit_xl_sim", "sim.launch", *args], env, TIMEOUT)
+    if rc is None:
         pytest.fail(f"launch with {args} still running after {TIMEOUT} s:\n{out[-3000:]}")
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
     return time.monotonic() - t0, out
 
 

@@ -85,6 +85,24 @@ class RoslaunchSession:
         return False
 
 
+def run_bounded(args, env, timeout):
+    """Run a command in its own session, killing its whole tree after timeout [s].
+
+    Returns (returncode, output); returncode is None when it was killed on timeout.
+    """
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env=env, start_new_session=True)
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+        return proc.returncode, out
+    except subprocess.TimeoutExpired:
+        stop_process_tree(proc, grace=5.0)
+        out, _ = proc.communicate()
+        return None, out
+    finally:
+        stop_process_tree(proc, grace=5.0)
+
+
 def wait_for(predicate, timeout, what, session=None, poll=0.05):
     """Wait until predicate() is true; RuntimeError naming `what` on timeout or launch death."""
     end = time.monotonic() + timeout
