@@ -33,13 +33,13 @@ $(BUILD_STAMP): $(PY_SOURCES)
 # Unit tests (pytest, no ROS master) then the rostest integration tests, all through
 # pytest so the run ends with one pytest summary line.
 test: build
-	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini $(PYTEST_ARGS)
+	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) $(PYTEST_ARGS)
 
 unit: build
-	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini -m "not integration" $(PYTEST_ARGS)
+	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) -m "not integration" $(PYTEST_ARGS)
 
 integration: build
-	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini -m integration $(PYTEST_ARGS)
+	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) -m integration $(PYTEST_ARGS)
 
 demo: build
 	@$(SOURCE_WS) $(PYTHON) tools/demo.py $(if $(GUI),--gui,)
