@@ -117,6 +117,9 @@ def test_save_then_load_round_trip(tmp_path):
     assert back.resolution == pytest.approx(0.05)
     assert back.origin == pytest.approx((-1.5, 2.25, 0.0))
     assert open(pgm, "rb").read().startswith(b"P5\n")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert os.stat(pgm).st_mode & 0o777 == 0o666 & ~umask  # not mkstemp's 0600
 
 
 def test_save_into_missing_folder_keeps_nothing_broken(tmp_path):
