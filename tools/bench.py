@@ -8,7 +8,10 @@ beside each time. Sections:
               willow-full, one core, the simulator's ray casting alone
   sim_rtf     the simulator's real-time factor with one robot, running as fast as it can
               with every topic subscribed (/clock, /tf, /odom, ground truth, 40 Hz scans)
-  slam_carmen the SLAM core offline on the CARMEN Intel and ACES logs (when present)
+  slam_carmen the SLAM core offline on the CARMEN Intel and ACES logs
+  slam_sim    slam_gmapping (ROS node, course parameters, 30 particles) over the tour of
+              the built-in world: ATE vs ground truth, map precision / recall, CPU per
+              simulated second, peak RSS
 
     make bench                      all sections
     make bench BENCH_ARGS="--only laser --runs 3"
@@ -150,15 +153,24 @@ def bench_slam_carmen():
         return json.load(f)
 
 
+def bench_slam_sim(runs):
+    script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_sim.py")
+    path = os.path.join(OUT, "bench_slam_sim.json")
+    subprocess.run([sys.executable, script, "--runs", str(runs), "--speed", "3", "--json", path, "--out", OUT],
+                   check=True)
+    with open(path) as f:
+        return json.load(f)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen (repeatable)")
+    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim (repeatable)")
     ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
     args = ap.parse_args()
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
-    only = set(args.only or ["laser", "sim_rtf", "slam_carmen"])
+    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim"])
     os.makedirs(OUT, exist_ok=True)
     report = {"machine": {"cores": os.cpu_count(), "python": sys.version.split()[0]}}
     lines = ["| benchmark | figure | target | peak RSS [MB] |", "| --- | --- | --- | --- |"]
@@ -186,6 +198,18 @@ def main():
                              f"SLAM / drifted odometry [m] | {r['ate_slam_m']:.3f} / {r['ate_odom_m']:.3f} "
                              f"({r['cpu_ms_per_processed_scan']:.0f} ms CPU per scan, {r['processed_scans']} scans) | "
                              f"{'<= 0.10' if r['log'] == 'intel' else '-'} | {r['peak_rss_mb']:.0f} |")
+    if "slam_sim" in only:
+        res = bench_slam_sim(args.runs)
+        report["slam_sim"] = res
+        m = res["median"]
+        worst = {k: (max if k in ("ate_m", "cpu_per_sim_s") else min)(r[k] for r in res["runs"])
+                 for k in ("ate_m", "precision", "recall", "cpu_per_sim_s")}
+        lines.append(f"| slam_gmapping on the built-in world tour, 30 particles ({len(res['runs'])} runs): "
+                     f"ATE RMSE [m] | {m['ate_m']:.3f} (worst {worst['ate_m']:.3f}) | <= 0.05 | {m['peak_rss_mb']:.0f} |")
+        lines.append(f"| ... map precision / recall | {m['precision']:.3f} / {m['recall']:.3f} "
+                     f"(worst {worst['precision']:.3f} / {worst['recall']:.3f}) | >= 0.95 / >= 0.90 | - |")
+        lines.append(f"| ... SLAM CPU s per simulated s | {m['cpu_per_sim_s']:.3f} (worst {worst['cpu_per_sim_s']:.3f}) "
+                     f"| <= 0.33 | - |")
     path = os.path.join(OUT, "bench.json")
     with open(path + ".tmp", "w") as f:
         json.dump(report, f, indent=2)

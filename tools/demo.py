@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """`make demo`: the course project, headless, with progress lines, a table and pictures.
 
-Today it runs the part that exists end to end: the simulator and the tour driver taking
-the Summit XL through every room of the built-in building (what the student does with
-the keyboard in the course's first step), and draws the world with the driven trajectory
-and one laser scan into output/demo_tour.png. Later steps (mapping, localization,
+Today it runs course step 1 end to end: the simulator and the tour driver take the
+Summit XL through every room of the built-in building (what the student does with the
+keyboard) while slam_gmapping maps it; map_saver saves the map. Pictures: the world with
+the driven trajectory and one laser scan (output/demo_tour.png) and the SLAM map judged
+against the true walls (output/demo_slam_map.png). Later steps (localization, spots,
 navigation) append to STEPS.
 
     make demo            headless
@@ -13,8 +14,8 @@ navigation) append to STEPS.
 import argparse
 import math
 import os
+import subprocess
 import sys
-import threading
 import time
 
 import cv2
@@ -25,7 +26,7 @@ from roslaunch_session import RoslaunchSession, wait_for  # noqa: E402
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(WS, "output")
-SIM_SPEED = 10.0  # simulated seconds per wall second for the headless demo
+MAPPING_SPEED = 4.0  # simulated seconds per wall second while mapping (SLAM needs ~0.12 CPU s per sim s)
 ROOMS = [  # (name, xmin, ymin, xmax, ymax) of the built-in building [m]
     ("main hall", 0, 0, 12, 14), ("room 1", 12, 7, 16, 14),
     ("room 2", 16, 7, 20, 14), ("fetch room", 12, 0, 20, 7)]
@@ -79,83 +80,107 @@ def draw_world_picture(world, trajectory, scan_pose, scan_xy, path, scale=3):
     os.replace(tmp, path)
 
 
-def step_tour(progress, gui):
-    """Step 0: simulator + tour driver; returns a result row for the table."""
+def step_mapping(progress, gui):
+    """Step 1: simulator + tour driver + slam_gmapping, then map_saver.
+
+    Returns result rows for the table, and draws the tour picture (world, trajectory,
+    one scan) and the SLAM map judged against the true walls.
+    """
     import rospy
-    from nav_msgs.msg import Odometry
+    import yaml
     from rospy.numpy_msg import numpy_msg
     from sensor_msgs.msg import LaserScan
-    from std_msgs.msg import Bool, UInt32
+    from std_msgs.msg import UInt32
 
+    from my_summit_mapping.slam_config import SlamConfig
     from summit_xl_sim.world import World
+    sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
+    from bench_slam_sim import TourRecorder, write_png  # shared with the mapping rostest
 
     world = World.from_yaml(os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.yaml"))
-    log = os.path.join(OUT, "demo_tour_launch.log")
-    args = ["summit_xl_sim", "tour.launch", f"speed:={SIM_SPEED}", f"gui:={'true' if gui else 'false'}"]
+    with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
+        slam_cfg = SlamConfig.from_dict(yaml.safe_load(f))
+    log = os.path.join(OUT, "demo_mapping_launch.log")
+    args = ["my_summit_mapping", "gmapping.launch", "driver:=tour", f"speed:={MAPPING_SPEED}",
+            f"gui:={'true' if gui else 'false'}"]
+    rows = []
     with RoslaunchSession(args, log=log) as session:
+        wait_for(lambda: session.alive(), 5, "roslaunch", session)
+        time.sleep(1.0)
         rospy.init_node("demo", anonymous=True, disable_signals=True)
-        lock = threading.Lock()
-        state = {"traj": [], "pose": None, "done": False, "coll": 0, "scan": None, "scan_pose": None}
-
-        def on_truth(msg):
-            q = msg.pose.pose.orientation
-            yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-            with lock:
-                state["pose"] = (msg.pose.pose.position.x, msg.pose.pose.position.y, yaw)
-                state["traj"].append(state["pose"][:2])
+        recorder = TourRecorder()
+        state = {"coll": 0, "scan": None, "scan_pose": None}
 
         def on_scan(msg):
-            with lock:
-                pose = state["pose"]
-                # Keep the scan taken nearest the fetch room's centre: it shows the table legs.
-                if pose is not None and (state["scan_pose"] is None or
-                                         math.hypot(pose[0] - 16.0, pose[1] - 3.5)
-                                         < math.hypot(state["scan_pose"][0] - 16.0, state["scan_pose"][1] - 3.5)):
-                    state["scan"], state["scan_pose"] = np.array(msg.ranges), pose
+            with recorder.lock:
+                pose = tuple(recorder.truth[-1][1:]) if recorder.truth else None
+            # Keep the scan taken nearest the fetch room's centre: it shows the table legs.
+            if pose is not None and (state["scan_pose"] is None or
+                                     math.hypot(pose[0] - 16.0, pose[1] - 3.5)
+                                     < math.hypot(state["scan_pose"][0] - 16.0, state["scan_pose"][1] - 3.5)):
+                state["scan"], state["scan_pose"] = np.array(msg.ranges), pose
 
-        rospy.Subscriber("/base_pose_ground_truth", Odometry, on_truth, queue_size=100)
         rospy.Subscriber("/hokuyo_base/scan", numpy_msg(LaserScan), on_scan, queue_size=2)
-        rospy.Subscriber("/tour_driver/done", Bool, lambda m: state.update(done=m.data), queue_size=1)
         rospy.Subscriber("/collisions", UInt32, lambda m: state.update(coll=m.data), queue_size=1)
-        wait_for(lambda: state["pose"] is not None, 60, "the simulator's ground truth", session)
-        progress.line(rospy.Time.now().to_sec(), f"simulator up at {SIM_SPEED:.0f}x real time; "
-                      f"tour driver starting at ({state['pose'][0]:.1f}, {state['pose'][1]:.1f})")
+        wait_for(lambda: bool(recorder.truth), 60, "the simulator's ground truth", session)
+        x0, y0 = recorder.truth[-1][1:3]
+        progress.line(rospy.Time.now().to_sec(), f"simulator up at {MAPPING_SPEED:.0f}x real time, slam_gmapping "
+                      f"({slam_cfg.particles} particles) mapping, tour driver starting at ({x0:.1f}, {y0:.1f})")
         room, t_start, wall_start = None, rospy.Time.now().to_sec(), time.monotonic()
-        while not state["done"]:
+        while recorder.done_time is None:
             if not session.alive():
                 raise RuntimeError(f"the launch ended early (see {log})")
-            with lock:
-                pose = state["pose"]
+            with recorder.lock:
+                pose = recorder.truth[-1][1:]
+                maps = recorder.map_count
             here = room_of(pose[0], pose[1])
             if here and here != room:
                 room = here
-                progress.line(rospy.Time.now().to_sec(), f"entered the {here}")
-            if time.monotonic() - wall_start > 300:
-                raise RuntimeError("the tour did not finish within 300 s of wall time")
+                progress.line(rospy.Time.now().to_sec(), f"entered the {here} ({maps} maps published so far)")
+            if time.monotonic() - wall_start > 600:
+                raise RuntimeError("the tour did not finish within 600 s of wall time")
             time.sleep(0.05)
         sim_t = rospy.Time.now().to_sec() - t_start
+        progress.line(rospy.Time.now().to_sec(), f"tour finished, {state['coll']} collisions; waiting for the final map")
+        problem = recorder.wait_done_and_final_map(120.0, session.alive)
+        if problem:
+            raise RuntimeError(f"mapping: {problem} (see {log})")
         wall_t = time.monotonic() - wall_start
-        with lock:
-            traj = list(state["traj"])
-            pose, ranges = state["scan_pose"], state["scan"]
-        progress.line(rospy.Time.now().to_sec(), f"tour finished, {state['coll']} collisions")
-    length = float(np.sum(np.hypot(*np.diff(np.array(traj), axis=0).T))) if len(traj) > 1 else 0.0
+        result = recorder.evaluate(world, slam_cfg.maxUrange)
+        progress.line(rospy.Time.now().to_sec(), f"map judged against the true walls: ATE {result['ate_m']:.3f} m, "
+                      f"precision {result['precision']:.3f}, recall {result['recall']:.3f}")
+        t0 = time.monotonic()
+        base = os.path.join(OUT, "demo_map")
+        saver = subprocess.run(["rosrun", "my_summit_mapping", "map_saver", "-f", base], env=session.env,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120)
+        if saver.returncode != 0:
+            raise RuntimeError(f"map_saver failed: {saver.stdout[-1500:]}")
+        progress.line(rospy.Time.now().to_sec(), f"map saved with map_saver: {os.path.relpath(base, WS)}.pgm/.yaml")
+        save_t = time.monotonic() - t0
+        last_sim = rospy.Time.now().to_sec()
+        with recorder.lock:
+            traj = [(x, y) for _, x, y, _ in recorder.truth]
+    pose, ranges = state["scan_pose"], state["scan"]
     scan_xy = []
     if ranges is not None:
         lx, ly = pose[0] + 0.25 * math.cos(pose[2]), pose[1] + 0.25 * math.sin(pose[2])
         ang = np.linspace(-2.356194490192345, 2.356194490192345, len(ranges)) + pose[2]
         ok = np.isfinite(ranges)
         scan_xy = np.column_stack([lx + ranges[ok] * np.cos(ang[ok]), ly + ranges[ok] * np.sin(ang[ok])])
-    picture = os.path.join(OUT, "demo_tour.png")
-    draw_world_picture(world, traj, pose, scan_xy, picture)
-    progress.line(rospy.Time.now().to_sec(), f"picture written: {os.path.relpath(picture, WS)}")
-    ok = state["coll"] == 0
-    return {"step": "tour the building (sim + tour driver)", "result": "ok" if ok else "COLLISION",
-            "sim_s": sim_t, "wall_s": wall_t,
-            "detail": f"{length:.1f} m driven, {state['coll']} collisions, {sim_t / max(wall_t, 1e-9):.1f}x real time"}
+    draw_world_picture(world, traj, pose, scan_xy, os.path.join(OUT, "demo_tour.png"))
+    write_png(result, os.path.join(OUT, "demo_slam_map.png"), world)
+    progress.line(last_sim, "pictures written: output/demo_tour.png, output/demo_slam_map.png")
+    length = float(np.sum(np.hypot(*np.diff(np.array(traj), axis=0).T))) if len(traj) > 1 else 0.0
+    rows.append({"step": "1. map the building (sim + tour + slam_gmapping)",
+                 "result": "ok" if state["coll"] == 0 else "COLLISION", "sim_s": sim_t, "wall_s": wall_t,
+                 "detail": f"{length:.1f} m driven, {state['coll']} collisions; SLAM ATE {result['ate_m']:.3f} m, "
+                           f"map precision {result['precision']:.3f} / recall {result['recall']:.3f}"})
+    rows.append({"step": "1. save the map (map_saver)", "result": "ok", "sim_s": 0.0, "wall_s": save_t,
+                 "detail": f"{os.path.relpath(base, WS)}.pgm + .yaml"})
+    return rows
 
 
-STEPS = [step_tour]
+STEPS = [step_mapping]
 
 
 def main():
@@ -166,7 +191,7 @@ def main():
     progress = Progress()
     rows = []
     for step in STEPS:
-        rows.append(step(progress, args.gui))
+        rows.extend(step(progress, args.gui))
     print("\n| step | result | sim time [s] | wall time [s] | detail |\n| --- | --- | --- | --- | --- |")
     for r in rows:
         print(f"| {r['step']} | {r['result']} | {r['sim_s']:.1f} | {r['wall_s']:.1f} | {r['detail']} |")
