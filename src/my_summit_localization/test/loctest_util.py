@@ -1,0 +1,199 @@
+"""Helpers for the localization rostest nodes: sim-time waits, latest messages, and the
+simulator's ground truth taken into the map frame of the committed map.
+
+Frames: /base_pose_ground_truth is in the simulator's world frame; the committed map
+(my_summit_mapping/maps/my_map.yaml) was made from the default spawn pose, so its map
+frame is the world frame moved to that pose: map_pose = inverse(map_in_world) (+) world_pose, where map_in_world is nominally the spawn
+pose (the test's ~map_in_world_x/y/yaw, default the simulator's /summit_xl_sim/x, y, yaw)
+refined by registering the map against the world (register_map: the SLAM map is a few
+cm and a fraction of a degree off the nominal frame).
+"""
+import math
+import threading
+import time
+
+import rospy
+
+WALL_TIMEOUT = 60.0   # [s] default wall-clock bound of a wait
+
+
+def yaw_of(q):
+    """Yaw [rad] of a geometry_msgs/Quaternion."""
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+
+
+def wrap(a):
+    """Angle wrapped to [-pi, pi) [rad]."""
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def compose(a, b):
+    """Pose a (+) b of (x, y, yaw) tuples."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2]))
+
+
+def inverse(a):
+    """Inverse of pose a (x, y, yaw)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (-c * a[0] - s * a[1], s * a[0] - c * a[1], wrap(-a[2]))
+
+
+def spawn_in_world():
+    """(x, y, yaw) of the map frame in the world, nominally: ~map_in_world_x/y/yaw, default
+    the simulator's spawn parameters /summit_xl_sim/x, y, yaw."""
+    return tuple(float(rospy.get_param("~map_in_world_" + k, rospy.get_param("/summit_xl_sim/" + k)))
+                 for k in ("x", "y", "yaw"))
+
+
+def map_in_world():
+    """(x, y, yaw) of the committed map's frame in the simulator's world: spawn_in_world()
+    refined by register_map (unless ~register_map is false). The map is ~map_file
+    (default my_summit_mapping's maps/my_map.yaml), the world /summit_xl_sim/world."""
+    guess = spawn_in_world()
+    if not rospy.get_param("~register_map", True):
+        return guess
+    import rospkg
+    default_map = rospkg.RosPack().get_path("my_summit_mapping") + "/maps/my_map.yaml"
+    found = register_map(rospy.get_param("~map_file", default_map), rospy.get_param("/summit_xl_sim/world"), guess)
+    rospy.loginfo(f"map frame in the world: nominal {tuple(round(v, 3) for v in guess)}, registered "
+                  f"({found[0]:.3f}, {found[1]:.3f}, {math.degrees(found[2]):.2f} deg)")
+    return found
+
+
+def pose_error(est, truth):
+    """(position error [m], |yaw error| [rad]) of two (x, y, yaw)."""
+    return math.hypot(est[0] - truth[0], est[1] - truth[1]), abs(wrap(est[2] - truth[2]))
+
+
+class Latest:
+    """Keeps the last message of a topic and counts messages (thread-safe)."""
+
+    def __init__(self, topic, msg_type, callback=None):
+        self.msg, self.count = None, 0
+        self.lock = threading.Lock()
+        self.callback = callback
+        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=50)
+
+    def _cb(self, msg):
+        with self.lock:
+            self.msg = msg
+            self.count += 1
+        if self.callback:
+            self.callback(msg)
+
+    def wait(self, timeout_wall=WALL_TIMEOUT, after=0):
+        """Block until more than `after` messages arrived; AssertionError on timeout."""
+        wait_for(lambda: self.count > after, f"a message on {self.sub.name}", timeout_wall)
+        return self.msg
+
+
+def wait_for(condition, what, timeout_wall=WALL_TIMEOUT):
+    """Block until condition() (wall-clock bound); AssertionError naming `what`."""
+    end = time.monotonic() + timeout_wall
+    while not condition():
+        if time.monotonic() > end or rospy.is_shutdown():
+            raise AssertionError(f"no {what} within {timeout_wall:.0f} s")
+        time.sleep(0.02)
+
+
+def wait_clock(timeout_wall=WALL_TIMEOUT):
+    """Wait until /clock has started (sim time > 0)."""
+    wait_for(lambda: rospy.Time.now().to_sec() > 0.0, "/clock", timeout_wall)
+
+
+def sleep_sim(seconds):
+    """Sleep in simulated time."""
+    rospy.sleep(rospy.Duration.from_sec(seconds))
+
+
+def truth_in_map(odom_msg, m_in_w):
+    """(x, y, yaw) in the map frame of a /base_pose_ground_truth message."""
+    p = odom_msg.pose.pose
+    world = (p.position.x, p.position.y, yaw_of(p.orientation))
+    return compose(inverse(m_in_w), world)
+
+
+class RosoutWatcher:
+    """Collects (node name, text) of every /rosout message (thread-safe)."""
+
+    def __init__(self):
+        from rosgraph_msgs.msg import Log
+        self.lines = []
+        self.lock = threading.Lock()
+        self.sub = rospy.Subscriber("/rosout", Log, self._cb, queue_size=200)
+
+    def _cb(self, msg):
+        with self.lock:
+            self.lines.append((msg.name, msg.msg))
+
+    def mark(self):
+        """Index of the next line (to look only at what comes after)."""
+        with self.lock:
+            return len(self.lines)
+
+    def find(self, node, text, start=0):
+        """First line of `node` containing `text` from index start, or None."""
+        with self.lock:
+            for name, line in self.lines[start:]:
+                if name.lstrip("/") == node and text in line:
+                    return line
+        return None
+
+    def wait(self, node, text, start=0, timeout_wall=WALL_TIMEOUT):
+        """Wait for a line of `node` containing `text`; returns it."""
+        wait_for(lambda: self.find(node, text, start) is not None, f"'{text}' from {node} on /rosout",
+                 timeout_wall)
+        return self.find(node, text, start)
+
+
+def register_map(map_yaml, world_yaml, guess, span=0.15, step=0.01, span_yaw_deg=0.6,
+                 step_yaw_deg=0.1, max_dist=0.3):
+    """(x, y, yaw) of the map frame in the world: `guess` refined by registering the maps.
+
+    A SLAM map is not exactly the world moved to the spawn pose: gmapping's estimate of
+    the first poses leaves it rotated and shifted a little (the committed map: ~0.2 deg
+    and a few cm), which 15 m from the origin makes several cm. The tests measure amcl
+    against ground truth in the map amcl uses, so they take the map frame's pose in the
+    world from the maps themselves: the map's occupied cell centres are placed in the
+    world's distance field (bilinear, capped at max_dist [m]) and the mean squared
+    distance is minimised over a grid of +-span [m] (step) and +-span_yaw_deg (step)
+    around guess (a grid search: ICP between two cell lattices sticks at whole cells).
+    """
+    import numpy as np
+    from scipy import ndimage
+    from summit_xl_sim.map_io import load_map
+
+    world, m = load_map(world_yaml), load_map(map_yaml)
+    dist = ndimage.distance_transform_edt(world.data != 100) * world.resolution
+    np.minimum(dist, max_dist, out=dist)
+    rows, cols = np.nonzero(m.data == 100)
+    ox, oy, oa = m.origin
+    mx, my = (cols + 0.5) * m.resolution, (rows + 0.5) * m.resolution
+    c, s = math.cos(oa), math.sin(oa)
+    src = np.column_stack([ox + c * mx - s * my, oy + s * mx + c * my])
+    wx, wy, wa = world.origin
+    cw, sw = math.cos(wa), math.sin(wa)
+
+    def cost(x, y, a):
+        c, s = math.cos(a), math.sin(a)
+        px, py = x + c * src[:, 0] - s * src[:, 1] - wx, y + s * src[:, 0] + c * src[:, 1] - wy
+        u = (cw * px + sw * py) / world.resolution - 0.5   # cell-centre coordinates
+        v = (-sw * px + cw * py) / world.resolution - 0.5
+        i0, j0 = np.floor(v).astype(int), np.floor(u).astype(int)
+        fv, fu = v - i0, u - j0
+        ok = (i0 >= 0) & (j0 >= 0) & (i0 < dist.shape[0] - 1) & (j0 < dist.shape[1] - 1)
+        i0, j0, fv, fu = i0[ok], j0[ok], fv[ok], fu[ok]
+        d = ((1 - fv) * ((1 - fu) * dist[i0, j0] + fu * dist[i0, j0 + 1])
+             + fv * ((1 - fu) * dist[i0 + 1, j0] + fu * dist[i0 + 1, j0 + 1]))
+        return (np.sum(d * d) + (src.shape[0] - d.size) * max_dist ** 2) / src.shape[0]
+
+    best = None
+    for da in np.arange(-span_yaw_deg, span_yaw_deg + 1e-9, step_yaw_deg):
+        for dx in np.arange(-span, span + 1e-9, step):
+            for dy in np.arange(-span, span + 1e-9, step):
+                cand = (guess[0] + dx, guess[1] + dy, guess[2] + math.radians(da))
+                e = cost(*cand)
+                if best is None or e < best[0]:
+                    best = (e, cand)
+    return best[1]

@@ -1,0 +1,171 @@
+#!/usr/bin/python3
+"""rostest: bad input to amcl and /save_spot before localization.
+
+Launch: the simulator, amcl with use_map_topic and *no* map server, spot_recorder. The
+test: amcl says it waits for the map; /save_spot refuses a label before amcl has a pose,
+an empty label, and `end` with no spot (no file written); then the test publishes the
+committed map late and amcl localizes; an initialpose in another frame, with NaN, or with
+a bad covariance is ignored with a warning; one with an empty frame is taken (warning).
+Last, amcl keeps its pose: it is saved as ~initial_pose_* and a restarted amcl (killed,
+respawned by roslaunch) resumes there rather than at the launch file's initial pose.
+"""
+import math
+import os
+import sys
+import unittest
+
+import rosnode
+import rospy
+import rostest
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from nav_msgs.msg import OccupancyGrid, Odometry
+from std_srvs.srv import Empty
+from summit_xl_sim.map_io import load_map
+
+from my_summit_localization.srv import MyServiceMessage
+from my_summit_mapping.map_msgs import grid_to_msg
+
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from loctest_util import (Latest, RosoutWatcher, map_in_world, pose_error, sleep_sim,  # noqa: E402
+                          truth_in_map, wait_clock, yaw_of)
+
+POS_TOL = 0.15             # [m] amcl vs ground truth while nothing disturbs it
+YAW_TOL = math.radians(5)  # [rad]
+
+
+def initialpose_msg(frame, x, y, yaw, cov=(0.05, 0.05, 0.02)):
+    msg = PoseWithCovarianceStamped()
+    msg.header.frame_id = frame
+    msg.header.stamp = rospy.Time.now()
+    msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    c = [0.0] * 36
+    c[0], c[7], c[35] = cov
+    msg.pose.covariance = c
+    return msg
+
+
+class AmclBadInput(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("amcl_bad_input_test")
+        cls.log = RosoutWatcher()
+        cls.truth = Latest("/base_pose_ground_truth", Odometry)
+        cls.amcl_pose = Latest("/amcl_pose", PoseWithCovarianceStamped)
+        cls.init_pub = rospy.Publisher("/initialpose", PoseWithCovarianceStamped, queue_size=5)
+        cls.map_pub = rospy.Publisher("/map", OccupancyGrid, queue_size=1, latch=True)
+        rospy.wait_for_service("/save_spot", 60.0)
+        cls.save_spot = rospy.ServiceProxy("/save_spot", MyServiceMessage)
+        cls.nomotion = rospy.ServiceProxy("/request_nomotion_update", Empty)
+        cls.spots_file = rospy.get_param("/spot_recorder/spots_file")
+        if os.path.exists(cls.spots_file):
+            os.unlink(cls.spots_file)
+        cls.m_in_w = map_in_world()
+        wait_clock()
+        cls.truth.wait()
+
+    def amcl_error(self):
+        """(position, yaw) error of the latest amcl_pose against ground truth."""
+        p = self.amcl_pose.msg.pose.pose
+        est = (p.position.x, p.position.y, yaw_of(p.orientation))
+        return pose_error(est, truth_in_map(self.truth.msg, self.m_in_w))
+
+    def fresh_pose(self):
+        """Force an update without motion and wait for the amcl_pose it produces."""
+        n = self.amcl_pose.count
+        self.nomotion()
+        self.amcl_pose.wait(30.0, after=n)
+
+    def test_1_late_map_and_spots_before_a_pose(self):
+        self.log.wait("amcl", "waiting for the map")
+        sleep_sim(2.0)
+        self.assertEqual(self.amcl_pose.count, 0, "amcl published a pose without a map")
+        r = self.save_spot("room")
+        self.assertFalse(r.navigation_successfull)
+        self.assertIn("no pose yet", r.message)
+        r = self.save_spot("")
+        self.assertFalse(r.navigation_successfull)
+        self.assertIn("label is empty", r.message)
+        r = self.save_spot("end")
+        self.assertFalse(r.navigation_successfull)
+        self.assertIn("no spot stored", r.message)
+        self.assertFalse(os.path.exists(self.spots_file), "end with no spot wrote a file")
+        # the map arrives late: amcl takes it and localizes at the initial pose
+        grid = load_map(rospy.get_param("~map_file"))
+        self.map_pub.publish(grid_to_msg(grid, "map", stamp=rospy.Time.now()))
+        self.log.wait("amcl", "received a")
+        self.amcl_pose.wait(60.0)
+        self.fresh_pose()
+        e_pos, e_yaw = self.amcl_error()
+        self.assertLess(e_pos, POS_TOL)
+        self.assertLess(e_yaw, YAW_TOL)
+        r = self.save_spot("room")
+        self.assertTrue(r.navigation_successfull, r.message)
+
+    def test_2_initialpose_in_another_frame_is_ignored(self):
+        self.amcl_pose.wait(60.0)
+        mark = self.log.mark()
+        self.init_pub.publish(initialpose_msg("odom", 5.0, 5.0, 1.0))
+        self.log.wait("amcl", "frame 'odom' ignored", mark)
+        self.fresh_pose()
+        self.assertLess(self.amcl_error()[0], POS_TOL)
+
+    def test_3_initialpose_with_nan_is_ignored(self):
+        self.amcl_pose.wait(60.0)
+        mark = self.log.mark()
+        self.init_pub.publish(initialpose_msg("map", float("nan"), 5.0, 1.0))
+        self.log.wait("amcl", "NaN", mark)
+        mark = self.log.mark()
+        self.init_pub.publish(initialpose_msg("map", 5.0, 5.0, 1.0, cov=(-0.1, 0.05, 0.02)))
+        self.log.wait("amcl", "positive semi-definite", mark)
+        self.fresh_pose()
+        self.assertLess(self.amcl_error()[0], POS_TOL)
+
+    def test_4_initialpose_empty_frame_is_taken_with_a_warning(self):
+        self.amcl_pose.wait(60.0)
+        truth = truth_in_map(self.truth.msg, self.m_in_w)
+        mark = self.log.mark()
+        # 0.3 m off the truth, small spread: amcl must move there (and then refine)
+        self.init_pub.publish(initialpose_msg("", truth[0] + 0.3, truth[1], truth[2],
+                                              cov=(0.0025, 0.0025, 0.001)))
+        self.log.wait("amcl", "empty frame_id", mark)
+        self.log.wait("amcl", "initial pose set", mark)
+        self.fresh_pose()
+        p = self.amcl_pose.msg.pose.pose.position
+        self.assertGreater(math.hypot(p.x - truth[0], p.y - truth[1]), 0.1,
+                           "amcl did not take the initialpose with an empty frame_id")
+        # put it back for good measure
+        self.init_pub.publish(initialpose_msg("map", *truth))
+        sleep_sim(0.5)
+        self.fresh_pose()
+        self.assertLess(self.amcl_error()[0], POS_TOL)
+
+    def test_5_restart_resumes_at_the_saved_pose(self):
+        self.amcl_pose.wait(60.0)
+        truth = truth_in_map(self.truth.msg, self.m_in_w)
+        # 0.6 m off the truth with a 2 cm spread: far from the launch's initial pose (0, 0)
+        mark = self.log.mark()
+        self.init_pub.publish(initialpose_msg("map", truth[0] + 0.6, truth[1], truth[2],
+                                              cov=(0.0004, 0.0004, 0.0004)))
+        self.log.wait("amcl", "initial pose set", mark)
+        self.fresh_pose()
+        sleep_sim(3.0)  # save_pose_rate 0.5 Hz
+        last = self.amcl_pose.msg.pose.pose.position
+        saved = (rospy.get_param("/amcl/initial_pose_x"), rospy.get_param("/amcl/initial_pose_y"))
+        self.assertAlmostEqual(saved[0], last.x, delta=0.02)
+        self.assertAlmostEqual(saved[1], last.y, delta=0.02)
+        self.assertGreater(saved[0] - truth[0], 0.3)
+        self.assertLess(rospy.get_param("/amcl/initial_cov_xx"), 0.05)
+        mark = self.log.mark()
+        rosnode.kill_nodes(["/amcl"])
+        line = self.log.wait("amcl", "received a", mark)  # the respawned amcl has the (latched) map
+        x0 = float(line.split("initial pose (")[1].split(",")[0])
+        self.assertAlmostEqual(x0, saved[0], delta=0.01, msg=line)
+        n = self.amcl_pose.count
+        self.amcl_pose.wait(60.0, after=n)
+        p = self.amcl_pose.msg.pose.pose.position
+        self.assertLess(math.hypot(p.x - saved[0], p.y - saved[1]), 0.15,
+                        "the restarted amcl did not resume at the saved pose")
+
+if __name__ == "__main__":
+    rostest.rosrun("my_summit_localization", "amcl_bad_input", AmclBadInput, sys.argv)
