@@ -12,6 +12,8 @@ beside each time. Sections:
   slam_sim    slam_gmapping (ROS node, course parameters, 30 particles) over the tour of
               the built-in world: ATE vs ground truth, map precision / recall, CPU per
               simulated second, peak RSS
+  amcl        the amcl core: update cost (5000 particles, 61 beams), tracking on the tour,
+              global localization from 20 seeded poses, kidnapping (10 runs)
 
     make bench                      all sections
     make bench BENCH_ARGS="--only laser --runs 3"
@@ -162,15 +164,23 @@ def bench_slam_sim(runs):
         return json.load(f)
 
 
+def bench_amcl():
+    script = os.path.join(WS, "src", "my_summit_localization", "scripts", "bench_amcl_core.py")
+    path = os.path.join(OUT, "bench_amcl.json")
+    subprocess.run([sys.executable, script, "--json", path], check=True)
+    with open(path) as f:
+        return json.load(f)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim (repeatable)")
+    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim, amcl (repeatable)")
     ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
     args = ap.parse_args()
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
-    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim"])
+    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl"])
     os.makedirs(OUT, exist_ok=True)
     report = {"machine": {"cores": os.cpu_count(), "python": sys.version.split()[0]}}
     lines = ["| benchmark | figure | target | peak RSS [MB] |", "| --- | --- | --- | --- |"]
@@ -210,6 +220,26 @@ def main():
                      f"(worst {worst['precision']:.3f} / {worst['recall']:.3f}) | >= 0.95 / >= 0.90 | - |")
         lines.append(f"| ... SLAM CPU s per simulated s | {m['cpu_per_sim_s']:.3f} (worst {worst['cpu_per_sim_s']:.3f}) "
                      f"| <= 0.33 | - |")
+    if "amcl" in only:
+        res = bench_amcl()
+        report["amcl"] = res
+        for c in res.get("cost", []):
+            lines.append(f"| amcl update, {c['particles']} particles x {c['beams']} beams, {c['map']}: median "
+                         f"[ms] | {c['median_ms']:.1f} (with the pose estimate {c['with_estimate_median_ms']:.1f}) "
+                         f"| <= 10 | {c['peak_rss_mb']:.0f} |")
+        if "tracking" in res:
+            t = res["tracking"]
+            lines.append(f"| amcl tracking on the tour from the known pose: position / yaw RMSE after 5 s | "
+                         f"{t['position_rmse_m']:.3f} m / {t['yaw_rmse_deg']:.2f} deg | <= 0.05 m / <= 2 deg "
+                         f"| {t['peak_rss_mb']:.0f} |")
+        if "global" in res:
+            g = res["global"]
+            lines.append(f"| amcl global localization, converged within 15 m of driving | {g['converged']} of "
+                         f"{g['runs']} | >= 18 of 20 | {g['peak_rss_mb']:.0f} |")
+        if "kidnap" in res:
+            k = res["kidnap"]
+            lines.append(f"| amcl kidnapping, recovered within 15 m | {k['recovered']} of {k['runs']} | >= 8 of 10 "
+                         f"| {k['peak_rss_mb']:.0f} |")
     path = os.path.join(OUT, "bench.json")
     with open(path + ".tmp", "w") as f:
         json.dump(report, f, indent=2)
