@@ -1,0 +1,256 @@
+#!/usr/bin/env python3
+"""Benchmark of the path-planning core (no ROS): NavFn, one DWA cycle, closed loop.
+
+1. NavFn on willow-full-0.05 between far-apart free cells: median plan time over
+   seeded pairs, and the path length against the exact 8-connected grid geodesic.
+2. One DWA control cycle (the course's sample counts) on a local costmap: median time.
+3. Closed loop in summit_xl_sim.sim.Simulation with ground-truth pose: global costmap
+   (static + obstacle + inflation) + NavFn (replanning at planner_frequency) + rolling
+   local costmap from the laser + DWA, between seeded random free pose pairs; reports
+   the share reached within tolerance, collisions, and the median of
+   time-to-goal / (planned path length / max_vel_x).
+
+Parameters come from the package's config/*.yaml. Usage:
+  bench_planning_core.py [--runs 50] [--willow-runs 20] [--json PATH]
+"""
+import argparse
+import json
+import math
+import os
+import resource
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "src"))
+
+from my_summit_path_planning import cost_values as cv  # noqa: E402
+from my_summit_path_planning.dwa import DWAPlanner  # noqa: E402
+from my_summit_path_planning.layers import scan_to_observation  # noqa: E402
+from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E402
+from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
+from my_summit_path_planning.recovery import clear_costmap_layers  # noqa: E402
+
+CONFIG = os.path.join(HERE, "..", "config")
+WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
+BUILTIN = os.path.join(WS_SRC, "summit_xl_sim", "worlds", "course_building.yaml")
+WILLOW = "/work/shared/data/maps/willow-full-0.05.yaml"
+SIM_DT = 0.005            # [s] simulator step
+MIN_PAIR_DIST = 2.0       # [m] closed-loop start-goal distance at least
+FAR_PAIR_DIST = 25.0      # [m] NavFn benchmark pairs at least this far apart
+TIME_LIMIT_FACTOR = 6.0   # a run fails after this x optimal time ...
+TIME_LIMIT_MIN = 40.0     # ... but never before this [s] of simulated time
+
+
+def peak_rss_mb():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def global_costmap(params, grid):
+    g = build_costmap(params.global_costmap, "global_costmap")
+    g.layer("static_layer").set_map(grid.data, grid.resolution, grid.origin)
+    g.update_map(0.0, 0.0, 0.0)
+    return g
+
+
+def bench_navfn(params, n_pairs, seed=0):
+    from summit_xl_sim.map_io import load_map
+    grid = load_map(WILLOW)
+    g = global_costmap(params, grid)
+    cm = g.master
+    planner = NavFn(params.navfn)
+    rng = np.random.default_rng(seed)
+    passable = cm.data < cv.INSCRIBED_INFLATED_OBSTACLE
+    free = np.argwhere(cm.data == cv.FREE_SPACE)
+    planner.make_plan(cm, cm.map_to_world(free[0][1], free[0][0]),
+                      cm.map_to_world(free[0][1], free[0][0]))  # build the graph cache
+    times, ratios, lengths, geos = [], [], [], []
+    while len(times) < n_pairs:
+        a, b = free[rng.integers(len(free))], free[rng.integers(len(free))]
+        if math.hypot(*(a - b)) * cm.resolution < FAR_PAIR_DIST:
+            continue
+        geo = grid_geodesic_length(passable, (a[1], a[0]), (b[1], b[0])) * cm.resolution
+        if not math.isfinite(geo):
+            continue
+        t0 = time.perf_counter()
+        r = planner.make_plan(cm, cm.map_to_world(a[1], a[0]), cm.map_to_world(b[1], b[0]))
+        times.append(time.perf_counter() - t0)
+        if not r.ok:
+            raise RuntimeError(f"NavFn failed on a connected pair: {r.reason}")
+        lengths.append(r.length)
+        geos.append(geo)
+        ratios.append(r.length / geo)
+    return {"pairs": n_pairs, "map_cells": int(cm.data.size),
+            "median_ms": 1000 * float(np.median(times)), "max_ms": 1000 * float(np.max(times)),
+            "median_path_m": float(np.median(lengths)), "median_geodesic_m": float(np.median(geos)),
+            "length_ratio_median": float(np.median(ratios)),
+            "length_ratio_max": float(np.max(ratios)), "length_ratio_min": float(np.min(ratios))}
+
+
+def bench_dwa_cycle(params, n=200, seed=0):
+    from my_summit_path_planning.costmap import LayeredCostmap  # noqa: F401
+    rng = np.random.default_rng(seed)
+    loc = build_costmap(params.local_costmap, "local_costmap")
+    layer = loc.layer("obstacle_layer")
+    ang = np.linspace(-2.356, 2.356, 1081)
+    ranges = 2.0 + 1.5 * np.abs(np.sin(3 * ang)) + rng.normal(0, 0.01, ang.size)
+    layer.add_observation(scan_to_observation(ranges, -2.356, ang[1] - ang[0], 0.1, 30.0,
+                                              (0.25, 0.0, 0.0), True, 4.0, 4.5))
+    loc.update_map(0.0, 0.0, 0.0)
+    dwa = DWAPlanner(params.dwa, loc.footprint)
+    plan = np.column_stack([np.linspace(0, 3, 61), 0.3 * np.sin(np.linspace(0, 3, 61))])
+    dwa.set_plan(plan, 0.0)
+    times = []
+    for i in range(n):
+        vel = (rng.uniform(0.0, 1.2), 0.0, rng.uniform(-1.0, 1.0))
+        t0 = time.perf_counter()
+        r = dwa.compute_velocity((0.0, 0.0, 0.0), vel, loc.master)
+        times.append(time.perf_counter() - t0)
+        dwa.oscillation.reset()
+    return {"cycles": n, "samples": r.n_samples, "median_ms": 1000 * float(np.median(times)),
+            "p90_ms": 1000 * float(np.percentile(times, 90))}
+
+
+def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False):
+    from summit_xl_sim.sim import Simulation
+    from summit_xl_sim.world import World, WorldError
+    world = World.from_yaml(world_yaml)
+    g = global_costmap(params, world.grid)
+    cm = g.master
+    planner = NavFn(params.navfn)
+    cfg = params.dwa
+    period = 1.0 / params.move_base.controller_frequency
+    sub = max(1, int(round(period / SIM_DT)))
+    replan_every = int(round(1.0 / (params.move_base.planner_frequency * period))) \
+        if params.move_base.planner_frequency > 0 else 0
+    rng = np.random.default_rng(seed)
+    free = np.argwhere(cm.data == cv.FREE_SPACE)
+    runs = []
+    for k in range(n_runs):
+        sim = Simulation(World.from_yaml(world_yaml), seed=seed * 1000 + k)
+        while True:
+            a = free[rng.integers(len(free))]
+            sx, sy = cm.map_to_world(a[1], a[0])
+            try:
+                st = sim.add_robot("robot", sx, sy, rng.uniform(-math.pi, math.pi))
+                break
+            except WorldError:
+                continue
+        while True:
+            b = free[rng.integers(len(free))]
+            gx, gy = cm.map_to_world(b[1], b[0])
+            gyaw = rng.uniform(-math.pi, math.pi)
+            if math.hypot(gx - sx, gy - sy) >= MIN_PAIR_DIST and sim.blocked_by(st, (gx, gy, gyaw)) is None:
+                break
+        first = planner.make_plan(cm, (sx, sy), (gx, gy))
+        if not first.ok:   # unreachable pair (closed room): draw another, not a failure
+            continue
+        loc = build_costmap(params.local_costmap, "local_costmap")
+        g_obs = g.layer("obstacle_layer")
+        g_obs.reset()
+        dwa = DWAPlanner(cfg, loc.footprint)
+        dwa.set_plan(first.path, gyaw)
+        las = st.laser
+        optimal = first.length / cfg.max_vel_x
+        limit = max(TIME_LIMIT_MIN, TIME_LIMIT_FACTOR * optimal)
+        t, cycle, reached, fails, dwa_ms, stuck, recoveries = 0.0, 0, False, 0, [], 0, 0
+        while t < limit:
+            pose = st.pose
+            ranges = sim.scan("robot")
+            obs_args = (ranges, las.angle_min, las.angle_increment, las.range_min, las.range_max,
+                        sim.laser_pose(st), True)
+            loc.layer("obstacle_layer").add_observation(scan_to_observation(*obs_args, 4.0, 4.5))
+            loc.update_map(*pose)
+            if replan_every and cycle % replan_every == 0 and cycle > 0:
+                g_obs.add_observation(scan_to_observation(*obs_args, 4.0, 4.5))
+                g.update_map(*pose)
+                r = planner.make_plan(cm, pose[:2], (gx, gy))
+                if r.ok and not dwa.xy_latched:
+                    dwa.set_plan(r.path, gyaw)
+            t0 = time.perf_counter()
+            res = dwa.compute_velocity(pose, st.vel, loc.master)
+            dwa_ms.append(1000 * (time.perf_counter() - t0))
+            if res.goal_reached:
+                reached = True
+                break
+            if not res.ok:
+                fails += 1
+                stuck += 1
+                if stuck * period >= params.move_base.controller_patience:
+                    # move_base would start its recoveries here: the aggressive reset of the
+                    # obstacle layers (the rotations are left to the node), then a new plan.
+                    clear_costmap_layers(loc, pose[:2], 0.0, ("obstacle_layer",), force_clear_all=True)
+                    recoveries += 1
+                    stuck = 0
+                    r = planner.make_plan(cm, pose[:2], (gx, gy))
+                    if r.ok:
+                        dwa.set_plan(r.path, gyaw)
+            else:
+                stuck = 0
+            sim.command("robot", *res.cmd)
+            for _ in range(sub):
+                sim.step(SIM_DT)
+            t += sub * SIM_DT
+            cycle += 1
+        err = math.hypot(st.pose[0] - gx, st.pose[1] - gy)
+        yaw_err = abs((st.pose[2] - gyaw + math.pi) % (2 * math.pi) - math.pi)
+        ok = reached and err <= cfg.xy_goal_tolerance + 0.05 and yaw_err <= cfg.yaw_goal_tolerance + 0.05
+        run = {"start": [sx, sy], "goal": [gx, gy, gyaw], "reached": bool(ok), "time_s": t,
+               "plan_m": first.length, "ratio": t / optimal, "collisions": st.collisions,
+               "xy_error_m": err, "yaw_error_rad": yaw_err, "no_command_cycles": fails, "recoveries": recoveries,
+               "dwa_median_ms": float(np.median(dwa_ms))}
+        runs.append(run)
+        if verbose:
+            print(f"  run {len(runs):3d}: reached={ok} t={t:5.1f}s ratio={run['ratio']:.2f} "
+                  f"coll={st.collisions} err={err:.2f}m plan={first.length:.1f}m", flush=True)
+    reached = [r for r in runs if r["reached"]]
+    return {"world": world_yaml, "runs": len(runs), "reached_share": len(reached) / max(1, len(runs)),
+            "collisions": int(sum(r["collisions"] for r in runs)),
+            "ratio_median": float(np.median([r["ratio"] for r in reached])) if reached else None,
+            "runs_detail": runs}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=50, help="closed-loop runs on the built-in world")
+    ap.add_argument("--willow-runs", type=int, default=0, help="closed-loop runs on willow-full-0.05")
+    ap.add_argument("--navfn-pairs", type=int, default=12)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", help="write the results here")
+    ap.add_argument("-v", "--verbose", action="store_true")
+    args = ap.parse_args(argv)
+    params = load_move_base_params(CONFIG)
+    out = {}
+    out["navfn_willow"] = bench_navfn(params, args.navfn_pairs, args.seed)
+    n = out["navfn_willow"]
+    print(f"NavFn willow-full-0.05: median {n['median_ms']:.0f} ms (max {n['max_ms']:.0f}) over "
+          f"{n['pairs']} pairs; path / grid geodesic: median {n['length_ratio_median']:.3f} "
+          f"(min {n['length_ratio_min']:.3f}, max {n['length_ratio_max']:.3f}); "
+          f"median path {n['median_path_m']:.1f} m vs geodesic {n['median_geodesic_m']:.1f} m", flush=True)
+    out["dwa_cycle"] = bench_dwa_cycle(params)
+    d = out["dwa_cycle"]
+    print(f"DWA cycle: median {d['median_ms']:.2f} ms, p90 {d['p90_ms']:.2f} ms, {d['samples']} samples", flush=True)
+    for key, path, n_runs in (("closed_loop_builtin", BUILTIN, args.runs),
+                              ("closed_loop_willow", WILLOW, args.willow_runs)):
+        if n_runs <= 0:
+            continue
+        t0 = time.time()
+        c = closed_loop(params, path, n_runs, args.seed, args.verbose)
+        c["wall_s"] = time.time() - t0
+        out[key] = c
+        print(f"closed loop {os.path.basename(path)}: {c['reached_share'] * 100:.0f}% of {c['runs']} reached, "
+              f"{c['collisions']} collisions, time/(plan/max_vel_x) median "
+              f"{c['ratio_median'] if c['ratio_median'] is None else round(c['ratio_median'], 2)} "
+              f"({c['wall_s']:.0f} s wall)", flush=True)
+    out["peak_rss_mb"] = peak_rss_mb()
+    print(f"peak RSS {out['peak_rss_mb']:.0f} MB")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

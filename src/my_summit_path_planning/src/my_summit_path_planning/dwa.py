@@ -1,0 +1,573 @@
+"""DWA local planner: the Dynamic Window Approach over a rolling local costmap.
+
+Reference: Fox, Burgard & Thrun 1997, "The Dynamic Window Approach to Collision
+Avoidance"; ROS 1 ``dwa_local_planner`` (dwa_planner.cpp) with ``base_local_planner``'s
+SimpleTrajectoryGenerator, cost functions (MapGrid, Obstacle, Oscillation, Twirling)
+and LatchedStopRotateController; wiki.ros.org/dwa_local_planner for the parameters.
+Structure after PythonRobotics' dynamic_window_approach.py, in the order it runs:
+
+1. ``dynamic_window``: velocities reachable within sim_period = 1/controller_frequency
+   under the acceleration limits, clipped to the velocity limits.
+2. ``sample_velocities``: vx_samples x vy_samples x vth_samples evenly over the window
+   (0 added when a range spans it, as base_local_planner's VelocityIterator), minus
+   samples that are too fast (max_vel_trans) or too slow (below min_vel_trans *and*
+   min_vel_theta).
+3. ``simulate``: every sample held constant over sim_time (plus stop_time_buffer for
+   the collision check), Euler steps of at most sim_granularity [m] /
+   angular_sim_granularity [rad]; all samples x steps in one numpy pass.
+4. ``score``: costs as dwa_local_planner weighs them (distances in metres):
+   0.5 * path_distance_bias * (path distance of the end point + of the forward point)
+   + 0.5 * goal_distance_bias * (goal distance of the end point + of the forward point)
+   + occdist_scale * (max costmap cost along the trajectory)
+   + twirling_scale * |vth|; a trajectory whose footprint meets a lethal or unknown
+   cell, whose centre enters an inscribed cell, that leaves the costmap, or that the
+   oscillation flags forbid is rejected.
+5. ``best``: the cheapest valid sample; oscillation flags updated.
+
+Goal handling (LatchedStopRotateController): within xy_goal_tolerance (latched with
+latch_xy_goal_tolerance) the robot stops within its acceleration limits, then rotates
+in place to the goal heading at a speed it can stop from, then reports the goal reached.
+
+Footprint check, vectorized: the footprint is covered by a few circles
+(Footprint.covering_circles); a pose collides when a lethal/unknown cell centre lies
+within a circle's radius + half a cell (one distance-field lookup per circle).
+
+Failure modes handled on purpose:
+- Start inside the inscribed zone (real DWA rejects every trajectory and the robot
+  never moves): the current pose's clearance c0 < 0 switches to escape mode, where
+  trajectories are valid if their clearance never drops below c0.
+- Spinning / oscillating in place: base_local_planner's oscillation flags (a reversal
+  of rotation, strafe or direction is forbidden until the robot has moved
+  oscillation_reset_dist or turned oscillation_reset_angle).
+- Wiggling at the goal: the xy latch, stopping first, and a rotation speed bounded by
+  sqrt(2 * acc_lim_theta * |yaw error|) so the turn cannot overshoot.
+- Ghost obstacles: handled in the obstacle layer (layers.scan_to_observation).
+"""
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+
+EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
+MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
+NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_point_distance of the goal
+PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
+ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the goal sooner
+ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated in escape mode
+
+
+@dataclass
+class DWAConfig:
+    """dwa_local_planner's ROS parameters (DWAPlannerROS namespace), Noetic names."""
+
+    max_vel_x: float = 0.55          # [m/s]
+    min_vel_x: float = 0.0           # [m/s] negative allows reversing
+    max_vel_y: float = 0.1           # [m/s] 0 for a diff drive
+    min_vel_y: float = -0.1          # [m/s]
+    max_vel_trans: float = 0.55      # [m/s] bound on |(vx, vy)|
+    min_vel_trans: float = 0.1       # [m/s] slower translations need min_vel_theta rotation
+    max_vel_theta: float = 1.0       # [rad/s]
+    min_vel_theta: float = 0.4       # [rad/s]
+    acc_lim_x: float = 2.5           # [m/s^2]
+    acc_lim_y: float = 2.5           # [m/s^2]
+    acc_lim_theta: float = 3.2       # [rad/s^2]
+    acc_lim_trans: float = 0.0       # [m/s^2] accepted; 0 = not used
+    trans_stopped_vel: float = 0.1   # [m/s] below this the robot counts as stopped
+    theta_stopped_vel: float = 0.1   # [rad/s]
+    xy_goal_tolerance: float = 0.10  # [m]
+    yaw_goal_tolerance: float = 0.05  # [rad]
+    latch_xy_goal_tolerance: bool = False
+    sim_time: float = 1.7            # [s]
+    sim_granularity: float = 0.025   # [m] step between simulated points
+    angular_sim_granularity: float = 0.1  # [rad]
+    vx_samples: int = 3
+    vy_samples: int = 10
+    vth_samples: int = 20
+    controller_frequency: float = 20.0  # [Hz] sim_period = 1 / controller_frequency
+    path_distance_bias: float = 32.0
+    goal_distance_bias: float = 24.0
+    occdist_scale: float = 0.01
+    twirling_scale: float = 0.0
+    forward_point_distance: float = 0.325  # [m]
+    stop_time_buffer: float = 0.2    # [s] the trajectory must stay free this much longer
+    scaling_speed: float = 0.25      # [m/s] accepted (footprint scaling: not used)
+    max_scaling_factor: float = 0.2  # accepted (not used)
+    oscillation_reset_dist: float = 0.05   # [m]
+    oscillation_reset_angle: float = 0.2   # [rad]
+    prune_plan: bool = True
+    use_dwa: bool = True             # accepted; this planner always uses the dynamic window
+    publish_traj_pc: bool = False
+    publish_cost_grid_pc: bool = False
+    holonomic_robot: bool = False    # base_local_planner name; True enables vy sampling
+
+    @property
+    def sim_period(self):
+        """[s] one control period."""
+        return 1.0 / self.controller_frequency
+
+
+@dataclass
+class DWAResult:
+    """What compute_velocity returns.
+
+    cmd: (vx [m/s], vy [m/s], vth [rad/s]); ok: False when no valid command exists
+    (reason says why; cmd is then zero); goal_reached; trajectory: (T, 3) poses of the
+    chosen sample (x, y, yaw) or None; n_valid / n_samples; cost of the chosen sample;
+    mode: 'dwa', 'escape', 'stop', 'rotate' or 'goal'.
+    """
+
+    cmd: tuple = (0.0, 0.0, 0.0)
+    ok: bool = True
+    reason: str = ""
+    goal_reached: bool = False
+    trajectory: np.ndarray = field(default=None, repr=False)
+    n_valid: int = 0
+    n_samples: int = 0
+    cost: float = 0.0
+    mode: str = "dwa"
+
+
+def wrap_angle(a):
+    """Angle wrapped to [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# -- 1. dynamic window ----------------------------------------------------------------
+def dynamic_window(cfg, vel):
+    """((vx_min, vx_max), (vy_min, vy_max), (vth_min, vth_max)) reachable in one sim_period."""
+    dt = cfg.sim_period
+    vx, vy, vth = vel
+    wx = (max(cfg.min_vel_x, vx - cfg.acc_lim_x * dt), min(cfg.max_vel_x, vx + cfg.acc_lim_x * dt))
+    wy = (max(cfg.min_vel_y, vy - cfg.acc_lim_y * dt), min(cfg.max_vel_y, vy + cfg.acc_lim_y * dt))
+    wth = (max(-cfg.max_vel_theta, vth - cfg.acc_lim_theta * dt),
+           min(cfg.max_vel_theta, vth + cfg.acc_lim_theta * dt))
+    # A window entirely outside the limits (e.g. faster than max after a config change)
+    # collapses onto the nearest limit.
+    fix = lambda lo_hi, lo, hi: (min(max(lo_hi[0], lo), hi), max(min(lo_hi[1], hi), lo))
+    return (fix(wx, cfg.min_vel_x, cfg.max_vel_x), fix(wy, cfg.min_vel_y, cfg.max_vel_y),
+            fix(wth, -cfg.max_vel_theta, cfg.max_vel_theta))
+
+
+def velocity_samples_1d(lo, hi, n):
+    """base_local_planner's VelocityIterator: n even samples over [lo, hi], 0 inserted if spanned."""
+    if hi - lo <= EPS:
+        return np.array([lo])
+    s = np.linspace(lo, hi, max(2, int(n)))
+    if lo < 0.0 < hi and not np.any(np.abs(s) < EPS):
+        s = np.sort(np.append(s, 0.0))
+    return s
+
+
+# -- 2. samples ----------------------------------------------------------------------
+def sample_velocities(cfg, window, holonomic):
+    """(N, 3) valid velocity samples (vx, vy, vth) of the window."""
+    (x0, x1), (y0, y1), (t0, t1) = window
+    vxs = velocity_samples_1d(x0, x1, cfg.vx_samples)
+    vys = velocity_samples_1d(y0, y1, cfg.vy_samples) if holonomic else np.array([0.0])
+    vts = velocity_samples_1d(t0, t1, cfg.vth_samples)
+    g = np.stack(np.meshgrid(vxs, vys, vts, indexing="ij"), axis=-1).reshape(-1, 3)
+    vmag = np.hypot(g[:, 0], g[:, 1])
+    ok = vmag <= cfg.max_vel_trans + EPS
+    too_slow = (vmag + EPS < cfg.min_vel_trans) & (np.abs(g[:, 2]) + EPS < cfg.min_vel_theta)
+    return g[ok & ~too_slow]
+
+
+# -- 3. forward simulation ------------------------------------------------------------
+def simulation_steps(cfg, samples, horizon):
+    """Number of Euler steps so that no sample moves more than the granularities per step."""
+    if len(samples) == 0:
+        return 1
+    vmax = float(np.hypot(samples[:, 0], samples[:, 1]).max())
+    wmax = float(np.abs(samples[:, 2]).max())
+    n = max(vmax * horizon / cfg.sim_granularity, wmax * horizon / cfg.angular_sim_granularity, 1.0)
+    return int(min(MAX_SIM_STEPS, math.ceil(n)))
+
+
+def simulate(pose, samples, dt, n_steps):
+    """Poses of every sample after each of n_steps Euler steps of dt [s].
+
+    pose: (x, y, yaw); samples: (N, 3) body velocities. Returns x, y, yaw each (N, n_steps),
+    step k holding the pose at time (k + 1) * dt (base_local_planner's computeNewPositions:
+    translate with the heading at the start of the step, then turn).
+    """
+    x0, y0, th0 = pose
+    vx, vy, w = samples[:, 0:1], samples[:, 1:2], samples[:, 2:3]
+    k = np.arange(n_steps, dtype=np.float64)[None, :]
+    th_before = th0 + w * (k * dt)
+    c, s = np.cos(th_before), np.sin(th_before)
+    x = x0 + np.cumsum((vx * c - vy * s) * dt, axis=1)
+    y = y0 + np.cumsum((vx * s + vy * c) * dt, axis=1)
+    return x, y, th_before + w * dt
+
+
+def path_distance_maps(local, costmap):
+    """Two (H, W) fields [m] over the costmap for a local plan (N, 2) [m]:
+    distance to the nearest plan cell, and plan length left to the plan's end from that
+    nearest plan cell. One cv2.distanceTransformWithLabels pass.
+    """
+    res = costmap.resolution
+    h, w = costmap.data.shape
+    pts = np.asarray(local, dtype=np.float64)
+    # Densify to half-cell spacing so every plan cell is drawn.
+    seg = np.hypot(*np.diff(pts, axis=0).T) if len(pts) > 1 else np.zeros(0)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    total = arc[-1]
+    n = max(2, int(math.ceil(total / (0.5 * res))) + 1)
+    s = np.linspace(0.0, total, n)
+    dense = np.column_stack([np.interp(s, arc, pts[:, 0]), np.interp(s, arc, pts[:, 1])])
+    left = total - s
+    cx = np.floor((dense[:, 0] - costmap.origin_x) / res).astype(np.int64)
+    cy = np.floor((dense[:, 1] - costmap.origin_y) / res).astype(np.int64)
+    ok = (cx >= 0) & (cy >= 0) & (cx < w) & (cy < h)
+    cx, cy, left = cx[ok], cy[ok], left[ok]
+    mask = np.full((h, w), 255, np.uint8)
+    if cx.size == 0:
+        inf = np.full((h, w), np.inf, np.float32)
+        return inf, inf
+    mask[cy, cx] = 0
+    dist, labels = cv2.distanceTransformWithLabels(mask, cv2.DIST_L2, cv2.DIST_MASK_5,
+                                                   labelType=cv2.DIST_LABEL_PIXEL)
+    left_cell = np.full((h, w), np.inf)
+    np.minimum.at(left_cell, (cy, cx), left)  # a cell's plan length left: its smallest
+    lab_left = np.full(int(labels.max()) + 1, np.inf)
+    lab_left[labels[cy, cx]] = left_cell[cy, cx]
+    return dist * res, lab_left[labels]
+
+
+def _end_direction(local, plan, back=0.3):
+    """Unit direction of the last ~back [m] of the local plan (or of the whole plan)."""
+    pts = local if len(local) >= 2 else plan
+    if len(pts) < 2:
+        return np.zeros(2)
+    end = pts[-1]
+    d = np.hypot(pts[:, 0] - end[0], pts[:, 1] - end[1])
+    far = np.flatnonzero(d >= back)
+    ref = pts[far[-1]] if len(far) else pts[0]
+    v = end - ref
+    n = math.hypot(v[0], v[1])
+    return v / n if n > 0 else np.zeros(2)
+
+
+# -- oscillation ----------------------------------------------------------------------
+class OscillationFlags:
+    """base_local_planner's OscillationCostFunction: forbid reversing a motion just made."""
+
+    NAMES = ("forward_pos", "forward_neg", "strafe_pos", "strafe_neg", "rot_pos", "rot_neg")
+
+    def __init__(self, reset_dist, reset_angle):
+        self.reset_dist = reset_dist
+        self.reset_angle = reset_angle
+        self.reset()
+        self.prev_stationary = None
+
+    def reset(self):
+        """Clear all flags (new plan, or the robot moved far enough)."""
+        for n in self.NAMES:
+            setattr(self, n, False)
+            setattr(self, n + "_only", False)
+
+    def forbidden(self, samples):
+        """(N,) bool: samples that would reverse a flagged motion."""
+        vx, vy, w = samples[:, 0], samples[:, 1], samples[:, 2]
+        bad = np.zeros(len(samples), dtype=bool)
+        if self.forward_pos_only:
+            bad |= vx < 0
+        if self.forward_neg_only:
+            bad |= vx > 0
+        if self.strafe_pos_only:
+            bad |= vy < 0
+        if self.strafe_neg_only:
+            bad |= vy > 0
+        if self.rot_pos_only:
+            bad |= w < 0
+        if self.rot_neg_only:
+            bad |= w > 0
+        return bad
+
+    def _set(self, v, pos, neg):
+        flag = False
+        if v < 0:
+            if getattr(self, pos):
+                setattr(self, neg + "_only", True)
+                flag = True
+            setattr(self, pos, False)
+            setattr(self, neg, True)
+        if v > 0:
+            if getattr(self, neg):
+                setattr(self, pos + "_only", True)
+                flag = True
+            setattr(self, neg, False)
+            setattr(self, pos, True)
+        return flag
+
+    def update(self, pose, cmd, min_vel_trans):
+        """After choosing cmd at pose: set flags on reversals, reset them once moved enough."""
+        flag = self._set(cmd[0], "forward_pos", "forward_neg")
+        if abs(cmd[0]) <= min_vel_trans:  # strafe / rotation flags only when not driving
+            flag |= self._set(cmd[1], "strafe_pos", "strafe_neg")
+            flag |= self._set(cmd[2], "rot_pos", "rot_neg")
+        if flag or self.prev_stationary is None:
+            self.prev_stationary = pose
+        if any(getattr(self, n + "_only") for n in self.NAMES):
+            px, py, pth = self.prev_stationary
+            if (math.hypot(pose[0] - px, pose[1] - py) > self.reset_dist
+                    or abs(wrap_angle(pose[2] - pth)) > self.reset_angle):
+                self.reset()
+
+
+# -- the planner ----------------------------------------------------------------------
+class DWAPlanner:
+    """The DWA local planner (nav_core's BaseLocalPlanner, without ROS).
+
+    config: DWAConfig; footprint: costmap.Footprint; holonomic: sample vy (omni drive),
+    default: config.holonomic_robot or max_vel_y > 0 with vy_samples > 1.
+
+    Use: set_plan(plan, goal_yaw) once per global plan, then compute_velocity(pose,
+    velocity, costmap) every control period; is_goal_reached() after.
+    """
+
+    def __init__(self, config, footprint, holonomic=None):
+        self.config = config
+        self.footprint = footprint
+        if holonomic is None:
+            holonomic = config.holonomic_robot or (config.max_vel_y > 0 and config.vy_samples > 1)
+        self.holonomic = bool(holonomic)
+        self.circle_centres, self.circle_radius = footprint.covering_circles()
+        self.oscillation = OscillationFlags(config.oscillation_reset_dist, config.oscillation_reset_angle)
+        self.plan = None
+        self.goal_yaw = 0.0
+        self.xy_latched = False
+        self.goal_reached = False
+        self.rotating_to_goal = False
+        self._closest = 0
+
+    def set_plan(self, plan, goal_yaw):
+        """A new global plan: (N, 2) points [m] in the costmap frame, goal heading [rad]."""
+        plan = np.asarray(plan, dtype=np.float64)[:, :2]
+        if len(plan) == 0 or not np.isfinite(plan).all() or not math.isfinite(goal_yaw):
+            raise ValueError("the plan must be a non-empty list of finite points and goal_yaw finite")
+        new_goal = self.plan is None or np.hypot(*(self.plan[-1] - plan[-1])) > 1e-6 \
+            or abs(wrap_angle(goal_yaw - self.goal_yaw)) > 1e-6
+        self.plan = plan
+        self.goal_yaw = float(goal_yaw)
+        self._closest = 0
+        if new_goal:
+            self.xy_latched = False
+            self.goal_reached = False
+            self.rotating_to_goal = False
+        self.oscillation.reset()
+
+    def is_goal_reached(self):
+        return self.goal_reached
+
+    # -- helpers ------------------------------------------------------------------------
+    def _local_plan(self, pose, costmap):
+        """The plan from the point nearest the robot until it leaves the costmap."""
+        plan = self.plan
+        if self.config.prune_plan:
+            # Search forward from the last nearest point, only PRUNE_SEARCH_ARC along the
+            # plan, so a plan that passes near itself does not make the robot jump ahead.
+            seg = plan[self._closest:]
+            arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(seg, axis=0).T))])
+            lim = int(np.searchsorted(arc, PRUNE_SEARCH_ARC)) + 1
+            d = np.hypot(seg[:lim, 0] - pose[0], seg[:lim, 1] - pose[1])
+            self._closest += int(np.argmin(d))
+            plan = plan[self._closest:]
+        _, _, inside = costmap.world_to_map_array(plan)
+        out = np.flatnonzero(~inside)
+        end = out[0] if len(out) else len(plan)
+        return plan[:max(end, 1)] if end > 0 else plan[:0]
+
+    def _footprint_clearance(self, dist_m, costmap, x, y, th):
+        """Clearance [m] (negative: collision) of poses (any shape) from lethal/unknown cells."""
+        res = costmap.resolution
+        clear = np.full(np.shape(x), np.inf)
+        c, s = np.cos(th), np.sin(th)
+        h, w = dist_m.shape
+        for cx, cy in self.circle_centres:
+            px = x + cx * c - cy * s
+            py = y + cx * s + cy * c
+            mx = np.floor((px - costmap.origin_x) / res).astype(np.int64)
+            my = np.floor((py - costmap.origin_y) / res).astype(np.int64)
+            inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
+            d = np.where(inside, dist_m[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)], -np.inf)
+            clear = np.minimum(clear, d - (self.circle_radius + 0.5 * res))
+        return clear
+
+    # -- main entry ---------------------------------------------------------------------
+    def compute_velocity(self, pose, velocity, costmap):
+        """One control cycle.
+
+        pose: (x [m], y [m], yaw [rad]) in the costmap frame; velocity: current body
+        velocity (vx, vy, vth) from odometry; costmap: the local Costmap2D (updated).
+        Returns a DWAResult.
+        """
+        cfg = self.config
+        if self.plan is None:
+            return DWAResult(ok=False, reason="no plan set")
+        if not all(math.isfinite(v) for v in tuple(pose) + tuple(velocity)):
+            return DWAResult(ok=False, reason=f"pose {pose} or velocity {velocity} not finite")
+        goal = self.plan[-1]
+        dist_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
+        if self.goal_reached:
+            return DWAResult(goal_reached=True, mode="goal")
+        if dist_goal <= cfg.xy_goal_tolerance or (cfg.latch_xy_goal_tolerance and self.xy_latched):
+            if cfg.latch_xy_goal_tolerance:
+                self.xy_latched = True
+            return self._stop_and_rotate(pose, velocity, costmap)
+
+        local = self._local_plan(pose, costmap)
+        if len(local) == 0:
+            return DWAResult(ok=False, reason="the global plan does not reach into the local costmap")
+        res = costmap.resolution
+        data = costmap.data
+        h, w = data.shape
+        # Distance fields over the local costmap [m].
+        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
+        dist_obs = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
+                                         cv2.DIST_MASK_PRECISE) * res if blocked.any() \
+            else np.full(data.shape, np.inf, dtype=np.float32)
+        dist_path, togo = path_distance_maps(local, costmap)
+        local_goal = local[-1]
+
+        # Escape mode: the robot already overlaps an obstacle or sits in the inscribed zone.
+        c0 = float(self._footprint_clearance(dist_obs, costmap, np.array(pose[0]),
+                                             np.array(pose[1]), np.array(pose[2])))
+        cc = costmap.cost_at(pose[0], pose[1])
+        escape = c0 < 0 or cc is None or cc >= INSCRIBED_INFLATED_OBSTACLE
+
+        window = dynamic_window(cfg, velocity)
+        samples = sample_velocities(cfg, window, self.holonomic)
+        if len(samples) == 0:
+            return DWAResult(ok=False, reason="no velocity sample in the dynamic window")
+        horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
+        n_steps = simulation_steps(cfg, samples, horizon)
+        dt = horizon / n_steps
+        n_score = max(1, min(n_steps, int(round(cfg.sim_time / dt))))
+        x, y, th = simulate(pose, samples, dt, n_steps)
+
+        # Obstacle cost: centre cells along the scored part; footprint along all of it.
+        mx = np.floor((x - costmap.origin_x) / res).astype(np.int64)
+        my = np.floor((y - costmap.origin_y) / res).astype(np.int64)
+        inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
+        centre = np.where(inside, data[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)], NO_INFORMATION)
+        clearance = self._footprint_clearance(dist_obs, costmap, x, y, th)
+        if escape:
+            valid = (clearance.min(axis=1) >= min(c0, 0.0) - ESCAPE_SLACK) & \
+                    (centre != LETHAL_OBSTACLE).all(axis=1) & inside.all(axis=1)
+            occ = centre[:, n_score - 1].astype(np.float64)
+            occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
+            occ -= 100.0 * np.minimum(clearance[:, n_score - 1], 0.0)  # prefer regaining clearance
+        else:
+            valid = (clearance.min(axis=1) >= 0.0) & \
+                    (centre < INSCRIBED_INFLATED_OBSTACLE).all(axis=1) & inside.all(axis=1)
+            occ = centre[:, :n_score].max(axis=1).astype(np.float64)
+        valid &= ~self.oscillation.forbidden(samples)
+
+        # Path and goal distances of the end point and of the point in front of it.
+        # When the local goal is the final goal, a trajectory is scored at its point of
+        # closest approach to the goal (it would stop there), and samples too fast to
+        # stop at the goal within acc_lim_x are rejected: the robot drives at speed
+        # until it must brake, instead of DWA's slow exponential approach.
+        final = len(local) == len(self.plan) - self._closest if cfg.prune_plan else \
+            len(local) == len(self.plan)
+        if final:
+            dg = np.hypot(x[:, :n_score] - goal[0], y[:, :n_score] - goal[1])
+            k = np.argmin(dg, axis=1)
+            rows = np.arange(len(samples))
+            ex, ey, eth = x[rows, k], y[rows, k], th[rows, k]
+            v_stop = math.sqrt(2.0 * cfg.acc_lim_x * max(0.0, dist_goal - 0.5 * cfg.xy_goal_tolerance))
+            valid &= np.hypot(samples[:, 0], samples[:, 1]) <= max(v_stop, cfg.min_vel_trans) + EPS
+        else:
+            ex, ey, eth = x[:, n_score - 1], y[:, n_score - 1], th[:, n_score - 1]
+        fx = ex + cfg.forward_point_distance * np.cos(eth)
+        fy = ey + cfg.forward_point_distance * np.sin(eth)
+        emx = np.floor((ex - costmap.origin_x) / res).astype(np.int64)
+        emy = np.floor((ey - costmap.origin_y) / res).astype(np.int64)
+        fmx = np.floor((fx - costmap.origin_x) / res).astype(np.int64)
+        fmy = np.floor((fy - costmap.origin_y) / res).astype(np.int64)
+        end_in = (emx >= 0) & (emy >= 0) & (emx < w) & (emy < h)
+        valid &= end_in
+        path_end = dist_path[emy.clip(0, h - 1), emx.clip(0, w - 1)]
+        path_fwd = dist_path[fmy.clip(0, h - 1), fmx.clip(0, w - 1)]
+        # Goal distance as base_local_planner's MapGrid measures it: along the path
+        # (plan length left from the nearest plan cell + distance to it), so rotating
+        # in place never looks like progress and driving along the plan always does.
+        goal_end = togo[emy.clip(0, h - 1), emx.clip(0, w - 1)] + path_end
+        # dwa_planner's goal_front_costs: the forward point is pulled to the local goal
+        # shifted forward along the plan's last direction, so pointing the nose at the
+        # goal from afar scores no better than getting there.
+        front_goal = local_goal + cfg.forward_point_distance * _end_direction(local, self.plan)
+        goal_fwd = np.hypot(fx - front_goal[0], fy - front_goal[1])
+        near_goal = dist_goal <= NEAR_GOAL_FACTOR * cfg.forward_point_distance
+        fwd_w = 0.0 if near_goal else 1.0
+        cost = (0.5 * cfg.path_distance_bias * (path_end + fwd_w * path_fwd)
+                + 0.5 * cfg.goal_distance_bias * (goal_end + fwd_w * goal_fwd)
+                + cfg.occdist_scale * occ
+                + cfg.twirling_scale * np.abs(samples[:, 2]))
+        if final:
+            # Tie-break among trajectories that all reach the goal: the earliest arrival.
+            cost += ARRIVAL_TIME_WEIGHT * cfg.goal_distance_bias * (k + 1) * dt
+        self._debug = dict(samples=samples, cost=cost, valid=valid, path_end=path_end, path_fwd=path_fwd,
+                           goal_end=goal_end, goal_fwd=goal_fwd, occ=occ, final=final)
+        n_valid = int(valid.sum())
+        if n_valid == 0:
+            return DWAResult(ok=False, reason=f"no valid trajectory: all {len(samples)} samples "
+                             "collide, leave the local costmap or would oscillate",
+                             n_samples=len(samples), mode="escape" if escape else "dwa")
+        cost = np.where(valid, cost, np.inf)
+        best = int(np.argmin(cost))
+        cmd = tuple(float(v) for v in samples[best])
+        self.oscillation.update(tuple(pose), cmd, cfg.min_vel_trans)
+        traj = np.column_stack([x[best, :n_score], y[best, :n_score], th[best, :n_score]])
+        return DWAResult(cmd=cmd, trajectory=traj, n_valid=n_valid, n_samples=len(samples),
+                         cost=float(cost[best]), mode="escape" if escape else "dwa")
+
+    # -- goal: stop, rotate, done --------------------------------------------------------
+    def _stopped(self, velocity):
+        cfg = self.config
+        return (abs(velocity[0]) <= cfg.trans_stopped_vel and abs(velocity[1]) <= cfg.trans_stopped_vel
+                and abs(velocity[2]) <= cfg.theta_stopped_vel)
+
+    def _rotation_is_free(self, pose, vth, costmap):
+        """Footprint check of an in-place rotation at vth [rad/s] over sim_time."""
+        cfg = self.config
+        data = costmap.data
+        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
+        if not blocked.any():
+            return True
+        dist = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
+                                     cv2.DIST_MASK_PRECISE) * costmap.resolution
+        n = max(2, int(math.ceil(abs(vth) * cfg.sim_time / cfg.angular_sim_granularity)))
+        ths = pose[2] + vth * cfg.sim_time * np.arange(1, n + 1) / n
+        clear = self._footprint_clearance(dist, costmap, np.full(n, pose[0]), np.full(n, pose[1]), ths)
+        c0 = self._footprint_clearance(dist, costmap, np.array(pose[0]), np.array(pose[1]), np.array(pose[2]))
+        return bool(clear.min() >= min(0.0, float(c0)) - ESCAPE_SLACK)
+
+    def _stop_and_rotate(self, pose, velocity, costmap):
+        cfg = self.config
+        err = wrap_angle(self.goal_yaw - pose[2])
+        if abs(err) <= cfg.yaw_goal_tolerance:
+            self.goal_reached = True
+            return DWAResult(goal_reached=True, mode="goal")
+        dt = cfg.sim_period
+        if not self.rotating_to_goal and not self._stopped(velocity):
+            # base_local_planner's stopWithAccLimits: brake as hard as allowed.
+            brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
+            cmd = (brake(velocity[0], cfg.acc_lim_x), brake(velocity[1], cfg.acc_lim_y),
+                   brake(velocity[2], cfg.acc_lim_theta))
+            return DWAResult(cmd=cmd, mode="stop")
+        # rotateToGoal: as fast as allowed, but slow enough to stop at the goal heading.
+        v = min(cfg.max_vel_theta, max(cfg.min_vel_theta, abs(err)))
+        v = min(max(v, abs(velocity[2]) - cfg.acc_lim_theta * dt), abs(velocity[2]) + cfg.acc_lim_theta * dt)
+        v = min(v, math.sqrt(2.0 * cfg.acc_lim_theta * abs(err)))
+        v = min(cfg.max_vel_theta, max(cfg.min_vel_theta, v))
+        vth = math.copysign(v, err)
+        self.rotating_to_goal = True  # LatchedStopRotateController: no more braking once turning
+        if not self._rotation_is_free(pose, vth, costmap):
+            return DWAResult(ok=False, reason="cannot rotate to the goal heading: the footprint "
+                             "would hit an obstacle", mode="rotate")
+        return DWAResult(cmd=(0.0, 0.0, vth), mode="rotate")

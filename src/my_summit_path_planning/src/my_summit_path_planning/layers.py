@@ -1,0 +1,555 @@
+"""The three costmap_2d layers: static map, obstacles from the laser, inflation.
+
+Reference: costmap_2d plugins ``static_layer.cpp`` (interpretValue: lethal threshold,
+unknown handling, trinary costs), ``obstacle_layer.cpp`` (marking within obstacle_range,
+ray-traced clearing within raytrace_range, inf_is_valid, combination_method, footprint
+clearing) and ``inflation_layer.cpp`` (the exponential cost decay); documentation at
+wiki.ros.org/costmap_2d/hydro/{staticmap,obstacles,inflation}.
+
+Each layer has the small interface of ``costmap.Layer`` and is chosen by the plugin
+type string of a costmap_2d YAML (``make_layer``). Everything is vectorized: clearing
+traces all rays at once (a vectorized walk along the exact rays, two samples per
+cell; ``ray_cells`` is the integer Bresenham-equivalent walk) and inflation is one ``cv2.distanceTransform``.
+"""
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .cost_values import (FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE,
+                          NO_INFORMATION)
+from .costmap import CostmapError, Costmap2D, Layer, expand_bounds
+
+# Plugin type strings (costmap_2d YAML) and the short names some configs use.
+STATIC_TYPES = ("costmap_2d::StaticLayer",)
+OBSTACLE_TYPES = ("costmap_2d::ObstacleLayer",)
+INFLATION_TYPES = ("costmap_2d::InflationLayer",)
+
+
+def _check_params(params, allowed, where):
+    unknown = sorted(set(params) - set(allowed))
+    if unknown:
+        raise CostmapError(f"{where}: unknown parameter(s) {unknown}; known: {sorted(allowed)}")
+
+
+def _number(params, key, default, where, minimum=None):
+    v = params.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise CostmapError(f"{where}: '{key}' must be a finite number, got {v!r}")
+    if minimum is not None and v < minimum:
+        raise CostmapError(f"{where}: '{key}' must be >= {minimum}, got {v!r}")
+    return float(v)
+
+
+def _flag(params, key, default, where):
+    v = params.get(key, default)
+    if not isinstance(v, bool):
+        raise CostmapError(f"{where}: '{key}' must be true or false, got {v!r}")
+    return v
+
+
+# ---------------------------------------------------------------------------------------
+class StaticLayer(Layer):
+    """The map from map_server as costs (costmap_2d::StaticLayer).
+
+    Parameters (costmap_2d names): track_unknown_space (true: unknown -> NO_INFORMATION,
+    false: unknown -> FREE_SPACE), use_maximum (false: overwrite the master; true: max),
+    lethal_cost_threshold (OccupancyGrid value >= this -> LETHAL), unknown_cost_value
+    (the OccupancyGrid value that means unknown, -1), trinary_costmap (true: other values
+    -> FREE; false: scaled 0..LETHAL), map_topic / first_map_only / subscribe_to_updates
+    (read by the node), enabled.
+    """
+
+    PARAMS = ("enabled", "map_topic", "first_map_only", "subscribe_to_updates",
+              "track_unknown_space", "use_maximum", "lethal_cost_threshold",
+              "unknown_cost_value", "trinary_costmap")
+
+    def __init__(self, name, params=None):
+        super().__init__(name)
+        params = dict(params or {})
+        where = f"static layer '{name}'"
+        _check_params(params, self.PARAMS, where)
+        self.enabled = _flag(params, "enabled", True, where)
+        self.track_unknown_space = _flag(params, "track_unknown_space", True, where)
+        self.use_maximum = _flag(params, "use_maximum", False, where)
+        self.trinary_costmap = _flag(params, "trinary_costmap", True, where)
+        self.lethal_cost_threshold = int(_number(params, "lethal_cost_threshold", 100, where, 0))
+        self.unknown_cost_value = int(_number(params, "unknown_cost_value", -1, where))
+        self.map_topic = str(params.get("map_topic", "map"))
+        self.first_map_only = _flag(params, "first_map_only", False, where)
+        self.subscribe_to_updates = _flag(params, "subscribe_to_updates", False, where)
+        self.grid = None          # Costmap2D of static costs
+        self._dirty = False
+
+    def interpret(self, occupancy):
+        """OccupancyGrid values (int8 array) -> costs (uint8 array), costmap_2d's interpretValue."""
+        value = np.asarray(occupancy).astype(np.int16) & 0xFF   # OccupancyGrid as unsigned char
+        unknown = (self.unknown_cost_value & 0xFF)
+        out = np.empty(value.shape, dtype=np.uint8)
+        lethal = value >= self.lethal_cost_threshold
+        if self.trinary_costmap:
+            out[...] = FREE_SPACE
+        else:
+            out[...] = np.floor(value / self.lethal_cost_threshold * LETHAL_OBSTACLE).clip(0, 255)
+        out[lethal] = LETHAL_OBSTACLE
+        out[value == unknown] = NO_INFORMATION if self.track_unknown_space else FREE_SPACE
+        return out
+
+    def set_map(self, occupancy, resolution, origin):
+        """A new map: occupancy (H, W) int8 OccupancyGrid values, row 0 lowest y;
+        resolution [m]; origin (x [m], y [m], yaw [rad]) with yaw 0.
+
+        A non-rolling master is resized to the map, as costmap_2d does.
+        """
+        occupancy = np.asarray(occupancy)
+        if occupancy.ndim != 2 or occupancy.size == 0:
+            raise CostmapError(f"static layer '{self.name}': map must be a non-empty 2D array")
+        if abs(float(origin[2])) > 1e-9:
+            raise CostmapError(f"static layer '{self.name}': a rotated map origin "
+                               f"(yaw {origin[2]}) is not supported, as in costmap_2d")
+        h, w = occupancy.shape
+        self.grid = Costmap2D(w, h, resolution, origin[0], origin[1], NO_INFORMATION)
+        self.grid.data[...] = self.interpret(occupancy)
+        if self.layered is not None and not self.layered.rolling_window:
+            m = self.layered.master
+            if (m.size_x, m.size_y, m.resolution, m.origin_x, m.origin_y) != \
+                    (w, h, float(resolution), float(origin[0]), float(origin[1])):
+                self.layered.resize_map(w, h, resolution, origin[0], origin[1])
+        self._dirty = True
+
+    def update_bounds(self, robot_x, robot_y, robot_yaw, bounds):
+        if self.grid is None:
+            return bounds
+        if self.layered.rolling_window or self._dirty:
+            self._dirty = False
+            g = self.grid
+            w, h = g.size_in_meters
+            return expand_bounds(bounds, g.origin_x, g.origin_y, g.origin_x + w, g.origin_y + h)
+        return bounds
+
+    def update_costs(self, master, window):
+        if self.grid is None:
+            return
+        x0, y0, x1, y1 = window
+        if not self.layered.rolling_window:
+            src = self.grid.data[y0:y1, x0:x1]
+            dst = master.data[y0:y1, x0:x1]
+            if self.use_maximum:
+                _update_with_max(dst, src)
+            else:
+                dst[...] = src  # updateWithTrueOverwrite
+            return
+        # Rolling window: sample the static grid at the master's cell centres.
+        res = master.resolution
+        xs = master.origin_x + (np.arange(x0, x1) + 0.5) * res
+        ys = master.origin_y + (np.arange(y0, y1) + 0.5) * res
+        g = self.grid
+        gx = np.floor((xs - g.origin_x) / g.resolution).astype(np.int64)
+        gy = np.floor((ys - g.origin_y) / g.resolution).astype(np.int64)
+        okx = (gx >= 0) & (gx < g.size_x)
+        oky = (gy >= 0) & (gy < g.size_y)
+        if not okx.any() or not oky.any():
+            return
+        sub = g.data[np.ix_(gy[oky], gx[okx])]
+        dst = master.data[y0:y1, x0:x1][np.ix_(np.flatnonzero(oky), np.flatnonzero(okx))]
+        if self.use_maximum:
+            _update_with_max(dst, sub)
+        else:
+            dst = sub
+        master.data[np.ix_(y0 + np.flatnonzero(oky), x0 + np.flatnonzero(okx))] = dst
+
+    def reset(self):
+        self._dirty = True
+
+
+def _update_with_max(dst, src):
+    """costmap_2d's updateWithMax, in place: unknown source cells do not count."""
+    known = src != NO_INFORMATION
+    take = known & ((dst == NO_INFORMATION) | (dst < src))
+    dst[take] = src[take]
+
+
+def _update_with_overwrite(dst, src):
+    """costmap_2d's updateWithOverwrite, in place: every known source cell wins."""
+    known = src != NO_INFORMATION
+    dst[known] = src[known]
+
+
+# ---------------------------------------------------------------------------------------
+@dataclass
+class Observation:
+    """One sensor reading in the costmap frame (costmap_2d's Observation).
+
+    origin: sensor position (x, y) [m]; points: (N, 2) ray end points [m];
+    mark: (N,) bool, False for rays that may only clear (no-return beams with
+    inf_is_valid); obstacle_range / raytrace_range [m]; marking / clearing: what this
+    source is allowed to do.
+    """
+
+    origin: tuple
+    points: np.ndarray
+    mark: np.ndarray
+    obstacle_range: float = 2.5
+    raytrace_range: float = 3.0
+    marking: bool = True
+    clearing: bool = True
+
+
+def scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max,
+                        sensor_pose, inf_is_valid=False, obstacle_range=2.5,
+                        raytrace_range=3.0, marking=True, clearing=True):
+    """A LaserScan's ranges [m] -> Observation in the costmap frame.
+
+    sensor_pose: (x [m], y [m], yaw [rad]) of the laser in the costmap frame. Readings
+    below range_min or NaN are dropped (as laser_geometry does). A no-return (+inf, or a
+    finite reading >= range_max, which some drivers report as range_max + 1) is dropped
+    unless inf_is_valid, in which case it becomes a clearing-only ray of length
+    range_max: it clears to raytrace_range but never marks, so max-range readings leave
+    no ghost obstacles whatever obstacle_range is.
+    """
+    r = np.asarray(ranges, dtype=np.float64)
+    ang = angle_min + angle_increment * np.arange(r.size) + sensor_pose[2]
+    with np.errstate(invalid="ignore"):
+        no_return = np.isposinf(r) | (np.isfinite(r) & (r >= range_max))
+        hit = np.isfinite(r) & (r >= range_min) & (r < range_max)
+    keep = hit | (no_return & inf_is_valid)
+    length = np.where(hit, r, range_max)[keep]
+    a = ang[keep]
+    pts = np.column_stack([sensor_pose[0] + length * np.cos(a), sensor_pose[1] + length * np.sin(a)])
+    return Observation(origin=(float(sensor_pose[0]), float(sensor_pose[1])), points=pts,
+                       mark=hit[keep], obstacle_range=obstacle_range,
+                       raytrace_range=raytrace_range, marking=marking, clearing=clearing)
+
+
+def ray_cells(x0, y0, x1, y1):
+    """Cells on straight lines from cell (x0, y0) to cells (x1, y1), all rays at once.
+
+    x0, y0: int start cell; x1, y1: (N,) int end cells. Returns (ray index (M,),
+    cx (M,), cy (M,)) for every cell of every ray, ends included: a DDA walk with one
+    cell per step of the dominant axis, the cells a Bresenham line visits.
+    """
+    x1 = np.asarray(x1, dtype=np.int64)
+    y1 = np.asarray(y1, dtype=np.int64)
+    dx, dy = x1 - x0, y1 - y0
+    n = np.maximum(np.abs(dx), np.abs(dy))
+    counts = n + 1
+    ray = np.repeat(np.arange(n.size), counts)
+    starts = np.cumsum(counts) - counts
+    k = np.arange(ray.size) - np.repeat(starts, counts)
+    nn = np.maximum(n, 1)[ray]
+    # Integer rounding of x0 + k*dx/n (half away from zero) keeps the walk exact.
+    cx = x0 + _div_round(k * dx[ray], nn)
+    cy = y0 + _div_round(k * dy[ray], nn)
+    return ray, cx, cy
+
+
+SUPERSAMPLE = 2  # clearing samples per cell along a ray [1/cell]
+
+
+def ray_cells_continuous(x0, y0, x1, y1):
+    """Cells under straight rays from continuous grid point (x0, y0) to points (x1, y1).
+
+    Coordinates in cells (cell (i, j) covers [i, i+1) x [j, j+1)). Samples every
+    1/SUPERSAMPLE cell along the dominant axis; returns (ray index, cx, cy) (M,) each,
+    with repeats.
+    """
+    x1 = np.asarray(x1, dtype=np.float64)
+    y1 = np.asarray(y1, dtype=np.float64)
+    dx, dy = x1 - x0, y1 - y0
+    n = np.ceil(SUPERSAMPLE * np.maximum(np.abs(dx), np.abs(dy))).astype(np.int64)
+    n = np.maximum(n, 1)
+    counts = n + 1
+    ray = np.repeat(np.arange(n.size), counts)
+    starts = np.cumsum(counts) - counts
+    t = (np.arange(ray.size) - np.repeat(starts, counts)) / n[ray]
+    return (ray, np.floor(x0 + t * dx[ray]).astype(np.int64),
+            np.floor(y0 + t * dy[ray]).astype(np.int64))
+
+
+def _div_round(num, den):
+    """Integer num/den rounded to nearest, ties away from zero (den > 0)."""
+    return np.sign(num) * ((2 * np.abs(num) + den) // (2 * den))
+
+
+def raytrace_reference(x0, y0, x1, y1):
+    """The slow, obvious Bresenham line from (x0, y0) to (x1, y1), ends included (oracle)."""
+    cells = []
+    dx, dy = abs(x1 - x0), abs(y1 - y0)
+    sx, sy = (1 if x1 >= x0 else -1), (1 if y1 >= y0 else -1)
+    x, y = x0, y0
+    if dx >= dy:
+        err = dx // 2
+        for _ in range(dx):
+            cells.append((x, y))
+            x += sx
+            err += dy
+            if err >= dx:
+                y += sy
+                err -= dx
+    else:
+        err = dy // 2
+        for _ in range(dy):
+            cells.append((x, y))
+            y += sy
+            err += dx
+            if err >= dy:
+                x += sx
+                err -= dy
+    cells.append((x, y))
+    return cells
+
+
+class ObstacleLayer(Layer):
+    """Obstacles seen by the sensors (costmap_2d::ObstacleLayer), in its own grid.
+
+    Parameters (costmap_2d names): observation_sources (names; each a dict with
+    data_type, topic, sensor_frame, marking, clearing, obstacle_range, raytrace_range,
+    inf_is_valid, ... read by the node), obstacle_range [m] and raytrace_range [m]
+    (defaults for sources), max_obstacle_height [m] (2D: accepted, unused),
+    track_unknown_space, footprint_clearing_enabled, combination_method (0 overwrite,
+    1 maximum, other: do not write), enabled.
+
+    Each update: all clearing observations first clear the cells along their rays out
+    to raytrace_range; then all marking observations mark their end points lying
+    within obstacle_range (costmap_2d's order, so a fresh hit survives the clearing).
+    """
+
+    PARAMS = ("enabled", "observation_sources", "obstacle_range", "raytrace_range",
+              "max_obstacle_height", "min_obstacle_height", "track_unknown_space",
+              "footprint_clearing_enabled", "combination_method", "inf_is_valid")
+    SOURCE_PARAMS = ("topic", "sensor_frame", "data_type", "marking", "clearing",
+                     "obstacle_range", "raytrace_range", "inf_is_valid",
+                     "expected_update_rate", "observation_persistence",
+                     "min_obstacle_height", "max_obstacle_height", "clear_on_max_reading")
+
+    def __init__(self, name, params=None):
+        super().__init__(name)
+        params = dict(params or {})
+        where = f"obstacle layer '{name}'"
+        sources_txt = params.get("observation_sources", "")
+        if not isinstance(sources_txt, str):
+            raise CostmapError(f"{where}: 'observation_sources' must be a space-separated string")
+        self.source_names = sources_txt.split()
+        allowed = set(self.PARAMS) | set(self.source_names)
+        _check_params(params, allowed, where)
+        self.enabled = _flag(params, "enabled", True, where)
+        self.obstacle_range = _number(params, "obstacle_range", 2.5, where, 0.0)
+        self.raytrace_range = _number(params, "raytrace_range", 3.0, where, 0.0)
+        self.max_obstacle_height = _number(params, "max_obstacle_height", 2.0, where)
+        self.track_unknown_space = _flag(params, "track_unknown_space", False, where)
+        self.footprint_clearing_enabled = _flag(params, "footprint_clearing_enabled", True, where)
+        self.combination_method = int(_number(params, "combination_method", 1, where))
+        self.sources = {}
+        for s in self.source_names:
+            sp = params.get(s, {})
+            if not isinstance(sp, dict):
+                raise CostmapError(f"{where}: source '{s}' must be a dict of parameters")
+            _check_params(sp, self.SOURCE_PARAMS, f"{where} source '{s}'")
+            dt = sp.get("data_type", "LaserScan")
+            if dt not in ("LaserScan", "PointCloud", "PointCloud2"):
+                raise CostmapError(f"{where} source '{s}': data_type must be LaserScan, "
+                                   f"PointCloud or PointCloud2, got {dt!r}")
+            self.sources[s] = {
+                "topic": sp.get("topic", s), "sensor_frame": sp.get("sensor_frame", ""),
+                "data_type": dt,
+                "marking": _flag(sp, "marking", True, f"{where} source '{s}'"),
+                "clearing": _flag(sp, "clearing", False, f"{where} source '{s}'"),
+                "obstacle_range": _number(sp, "obstacle_range", self.obstacle_range, where, 0.0),
+                "raytrace_range": _number(sp, "raytrace_range", self.raytrace_range, where, 0.0),
+                "inf_is_valid": _flag(sp, "inf_is_valid", False, f"{where} source '{s}'"),
+                "expected_update_rate": _number(sp, "expected_update_rate", 0.0, where, 0.0),
+                "observation_persistence": _number(sp, "observation_persistence", 0.0, where, 0.0),
+            }
+        self.grid = None
+        self._pending = []
+        self._footprint_xy = None
+
+    def initialize(self, layered):
+        super().initialize(layered)
+        self.match_size()
+
+    def _default(self):
+        return NO_INFORMATION if self.track_unknown_space else FREE_SPACE
+
+    def match_size(self):
+        m = self.layered.master
+        g = self.grid
+        if g is None or (g.size_x, g.size_y, g.resolution) != (m.size_x, m.size_y, m.resolution):
+            self.grid = Costmap2D(m.size_x, m.size_y, m.resolution, m.origin_x, m.origin_y,
+                                  self._default())
+        elif (g.origin_x, g.origin_y) != (m.origin_x, m.origin_y):
+            g.update_origin(m.origin_x, m.origin_y)
+            # Rounding to whole cells: snap exactly to the master's origin.
+            g.origin_x, g.origin_y = m.origin_x, m.origin_y
+
+    def add_observation(self, obs):
+        """Queue an Observation for the next update_bounds."""
+        self._pending.append(obs)
+
+    def update_bounds(self, robot_x, robot_y, robot_yaw, bounds):
+        obs, self._pending = self._pending, []
+        for o in obs:
+            if o.clearing:
+                bounds = self._raytrace_clear(o, bounds)
+        for o in obs:
+            if o.marking:
+                bounds = self._mark(o, bounds)
+        if self.footprint_clearing_enabled:
+            fp = self.layered.footprint.oriented(robot_x, robot_y, robot_yaw)
+            self._footprint_xy = fp
+            bounds = expand_bounds(bounds, fp[:, 0].min(), fp[:, 1].min(),
+                                   fp[:, 0].max(), fp[:, 1].max())
+        return bounds
+
+    def _raytrace_clear(self, o, bounds):
+        g = self.grid
+        pts = np.asarray(o.points, dtype=np.float64).reshape(-1, 2)
+        if pts.size == 0:
+            return bounds
+        ox, oy = o.origin
+        cell0 = g.world_to_map(ox, oy)
+        if cell0 is None:
+            return bounds  # costmap_2d: sensor origin off the map -> no clearing
+        d = pts - np.array([ox, oy])
+        dist = np.hypot(d[:, 0], d[:, 1])
+        scale = np.where(dist > o.raytrace_range, o.raytrace_range / np.maximum(dist, 1e-12), 1.0)
+        ends = np.array([ox, oy]) + d * scale[:, None]
+        # Walk the exact (continuous) rays at SUPERSAMPLE points per cell, so the cell
+        # of a hit that lies on a ray is crossed by the clearing of that ray.
+        gx0 = (ox - g.origin_x) / g.resolution
+        gy0 = (oy - g.origin_y) / g.resolution
+        ray, cx, cy = ray_cells_continuous(gx0, gy0, (ends[:, 0] - g.origin_x) / g.resolution,
+                                           (ends[:, 1] - g.origin_y) / g.resolution)
+        inside = (cx >= 0) & (cy >= 0) & (cx < g.size_x) & (cy < g.size_y)
+        g.data[cy[inside], cx[inside]] = FREE_SPACE
+        r = o.raytrace_range
+        return expand_bounds(bounds, ox - r, oy - r, ox + r, oy + r)
+
+    def _mark(self, o, bounds):
+        g = self.grid
+        pts = np.asarray(o.points, dtype=np.float64).reshape(-1, 2)
+        if pts.size == 0:
+            return bounds
+        d = pts - np.array(o.origin)
+        near = (np.hypot(d[:, 0], d[:, 1]) <= o.obstacle_range) & np.asarray(o.mark, dtype=bool)
+        mx, my, inside = g.world_to_map_array(pts[near])
+        g.data[my[inside], mx[inside]] = LETHAL_OBSTACLE
+        if inside.any():
+            p = pts[near][inside]
+            bounds = expand_bounds(bounds, p[:, 0].min(), p[:, 1].min(), p[:, 0].max(), p[:, 1].max())
+        return bounds
+
+    def update_costs(self, master, window):
+        if self._footprint_xy is not None:
+            poly = (self._footprint_xy - np.array([self.grid.origin_x, self.grid.origin_y])) / self.grid.resolution
+            cv2.fillConvexPoly(self.grid.data, np.round(poly - 0.5).astype(np.int32), FREE_SPACE)
+        x0, y0, x1, y1 = window
+        src = self.grid.data[y0:y1, x0:x1]
+        dst = master.data[y0:y1, x0:x1]
+        if self.combination_method == 0:
+            _update_with_overwrite(dst, src)
+        elif self.combination_method == 1:
+            _update_with_max(dst, src)
+
+    def reset(self):
+        self.grid.reset()
+        self._pending = []
+
+    def clear_window(self, window, invert=False):
+        """Reset this layer's cells inside (or, with invert, outside) a cell window."""
+        self.grid.clear_area(window, invert)
+
+
+# ---------------------------------------------------------------------------------------
+def inflation_cost(distance, inscribed_radius, cost_scaling_factor):
+    """costmap_2d's inflation cost for a cell at ``distance`` [m] from the nearest lethal cell.
+
+    0 -> LETHAL_OBSTACLE; <= inscribed_radius -> INSCRIBED_INFLATED_OBSTACLE; beyond:
+    (INSCRIBED - 1) * exp(-cost_scaling_factor * (distance - inscribed_radius)),
+    truncated to an integer as costmap_2d's unsigned char cast does. Works on arrays.
+    """
+    d = np.asarray(distance, dtype=np.float64)
+    factor = np.exp(-cost_scaling_factor * (d - inscribed_radius))
+    cost = np.floor((INSCRIBED_INFLATED_OBSTACLE - 1) * np.minimum(factor, 1.0)).astype(np.uint8)
+    cost = np.where(d <= inscribed_radius, INSCRIBED_INFLATED_OBSTACLE, cost)
+    return np.where(d == 0, LETHAL_OBSTACLE, cost).astype(np.uint8)
+
+
+class InflationLayer(Layer):
+    """Inflate lethal cells with costs that decay with distance (costmap_2d::InflationLayer).
+
+    Parameters: inflation_radius [m] (costs stop beyond it), cost_scaling_factor [1/m]
+    (decay rate), inflate_unknown (unknown cells also inflate), enabled. The inscribed
+    radius comes from the costmap's footprint. Distances are exact Euclidean distances
+    between cell centres (cv2.distanceTransform, DIST_MASK_PRECISE), as costmap_2d's
+    cell-offset distance table; cells farther than ceil(inflation_radius / resolution)
+    cells get nothing.
+    """
+
+    PARAMS = ("enabled", "inflation_radius", "cost_scaling_factor", "inflate_unknown")
+
+    def __init__(self, name, params=None):
+        super().__init__(name)
+        params = dict(params or {})
+        where = f"inflation layer '{name}'"
+        _check_params(params, self.PARAMS, where)
+        self.enabled = _flag(params, "enabled", True, where)
+        self.inflation_radius = _number(params, "inflation_radius", 0.55, where, 0.0)
+        self.cost_scaling_factor = _number(params, "cost_scaling_factor", 10.0, where, 0.0)
+        self.inflate_unknown = _flag(params, "inflate_unknown", False, where)
+
+    def cell_inflation_radius(self, resolution):
+        """[cells] costmap_2d's cellDistance(inflation_radius)."""
+        return int(max(0.0, math.ceil(self.inflation_radius / resolution - 1e-9)))
+
+    def update_bounds(self, robot_x, robot_y, robot_yaw, bounds):
+        if bounds[0] > bounds[2]:
+            return bounds
+        r = self.inflation_radius
+        return (bounds[0] - r, bounds[1] - r, bounds[2] + r, bounds[3] + r)
+
+    def update_costs(self, master, window):
+        x0, y0, x1, y1 = window
+        res = master.resolution
+        rc = self.cell_inflation_radius(res)
+        # Sources may lie up to rc cells outside the window.
+        ex0, ey0 = max(0, x0 - rc), max(0, y0 - rc)
+        ex1, ey1 = min(master.size_x, x1 + rc), min(master.size_y, y1 + rc)
+        region = master.data[ey0:ey1, ex0:ex1]
+        src = region == LETHAL_OBSTACLE
+        if self.inflate_unknown:
+            src |= region == NO_INFORMATION
+        if not src.any():
+            return
+        dist = cv2.distanceTransform((~src).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        dist = dist[y0 - ey0:y1 - ey0, x0 - ex0:x1 - ex0]
+        cost = inflation_cost(dist * res, self.layered.inscribed_radius, self.cost_scaling_factor)
+        cost[dist > rc + 1e-3] = FREE_SPACE
+        old = master.data[y0:y1, x0:x1]
+        unknown = old == NO_INFORMATION
+        new = np.maximum(old, cost)
+        if self.inflate_unknown:
+            keep_unknown = unknown & (cost == FREE_SPACE)
+        else:
+            keep_unknown = unknown & (cost < INSCRIBED_INFLATED_OBSTACLE)
+        new[unknown] = cost[unknown]
+        new[keep_unknown] = NO_INFORMATION
+        master.data[y0:y1, x0:x1] = new
+
+
+LAYER_TYPES = {}
+for _t in STATIC_TYPES:
+    LAYER_TYPES[_t] = StaticLayer
+for _t in OBSTACLE_TYPES:
+    LAYER_TYPES[_t] = ObstacleLayer
+for _t in INFLATION_TYPES:
+    LAYER_TYPES[_t] = InflationLayer
+
+
+def make_layer(type_name, name, params):
+    """The layer for a costmap_2d plugin type string; CostmapError for an unknown type."""
+    if type_name not in LAYER_TYPES:
+        raise CostmapError(f"plugin '{name}': unknown type {type_name!r}; "
+                           f"known: {sorted(LAYER_TYPES)}")
+    return LAYER_TYPES[type_name](name, params)

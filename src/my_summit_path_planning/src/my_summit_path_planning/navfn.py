@@ -1,0 +1,431 @@
+"""NavFn global planner: Dijkstra navigation function + gradient-descent path.
+
+Reference: ROS 1 navigation ``navfn`` (navfn.h / navfn.cpp, navfn_ros.cpp), after
+Brock & Khatib 1999 / Konolige 2000 "A Gradient Method for Realtime Robot Control"
+(the navigation function); wiki.ros.org/navfn for the parameters.
+
+The algorithm, in the order it runs:
+1. Cell costs: ``COST_NEUTRAL + COST_FACTOR * costmap cost`` for costs below
+   INSCRIBED (253); inscribed and lethal cells are forbidden; unknown cells (255) cost
+   COST_OBS - 1 when allow_unknown, else are forbidden (navfn's setCostmap).
+2. Potential: Dijkstra from the robot's cell over the grid (navfn_ros seeds the
+   propagation at the robot so that default_tolerance can pick any reached cell near
+   the goal). We run SciPy's compiled ``scipy.sparse.csgraph.dijkstra`` on an
+   8-connected grid graph built with numpy, edge weight = mean of the two cell costs x
+   step length [cells]. (navfn itself propagates a 4-connected wavefront with a
+   quadratic interpolation; the 8-connected graph gives a comparably isotropic
+   potential, and the slow pure-Python ``dijkstra_reference`` on the same graph is the
+   test oracle.)
+3. Goal: the goal cell if it was reached; else, with default_tolerance > 0, the reached
+   cell closest to the goal inside the tolerance square (navfn_ros::makePlan).
+4. Path: from the goal down the potential's gradient to the robot (navfn's calcPath):
+   steps of PATH_STEP cells along the bilinearly interpolated, per-cell normalized
+   gradient; where any neighbour of the current cell is unreached (an obstacle) or the
+   path oscillates, a grid step to the lowest-potential neighbour instead. Either way
+   each point lies in a reached cell, so the path never touches a forbidden cell.
+
+Deliberate difference from navfn: a robot whose centre is in an inscribed (or, without
+allow_unknown, unknown) cell still gets a plan: the forbidden, non-lethal region that
+contains the start is made passable at the highest cost (COST_OBS - 1), so the plan
+leads out of it by the shortest way (the real navfn returns no plan there and the
+robot needs a recovery). A start in a lethal cell still fails.
+"""
+import heapq
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra as _sp_dijkstra
+
+from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+
+# navfn.h: navfn cost values are COST_NEUTRAL + COST_FACTOR * costmap cost. Costmap
+# costs 0..252 then spread evenly over 50..251. With a larger factor the costs near
+# obstacles would saturate at COST_OBS - 1 into a plateau, and the planner would see a
+# whole narrow hallway as equally bad and stop planning down its centre; with a
+# smaller neutral cost, obstacle cost would dominate path length.
+COST_NEUTRAL = 50      # cost of a free cell [navfn cost units per cell]
+COST_FACTOR = 0.8      # navfn cost units per costmap cost unit
+COST_OBS = 254         # navfn's forbidden-cell value
+POT_HIGH = 1.0e10      # potential of an unreached cell
+PATH_STEP = 0.5        # gradient-descent step [cells] (navfn's pathStep)
+SQRT2 = math.sqrt(2.0)
+# 8-connected neighbour offsets (dx, dy) and step lengths [cells].
+NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1))
+
+
+@dataclass
+class NavfnConfig:
+    """navfn's ROS parameters (NavfnROS namespace)."""
+
+    allow_unknown: bool = True            # plan through unknown cells
+    default_tolerance: float = 0.0        # [m] accept a reachable goal this close to the goal
+    planner_window_x: float = 0.0         # [m] accepted for compatibility; 0 = whole costmap
+    planner_window_y: float = 0.0         # [m]
+    visualize_potential: bool = False     # keep the potential for publishing
+
+
+@dataclass
+class PlanResult:
+    """What make_plan returns.
+
+    path: (N, 2) world points [m] from start to goal, or None; reason: '' on success,
+    else why there is no plan; goal: the goal actually planned to (x, y) [m] (differs
+    from the request when default_tolerance was used); length [m]; potential: (H, W)
+    float potential (POT_HIGH where unreached) when visualize_potential, else None.
+    """
+
+    path: np.ndarray = None
+    reason: str = ""
+    goal: tuple = None
+    length: float = 0.0
+    potential: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def ok(self):
+        return self.path is not None
+
+
+def navfn_costs(costs, allow_unknown):
+    """Costmap costs (H, W) uint8 -> navfn cell costs (H, W) float64, inf = forbidden."""
+    c = np.asarray(costs)
+    out = np.floor(COST_NEUTRAL + COST_FACTOR * c.astype(np.float64))
+    out = np.minimum(out, COST_OBS - 1)
+    out[c >= INSCRIBED_INFLATED_OBSTACLE] = np.inf
+    if allow_unknown:
+        out[c == NO_INFORMATION] = COST_OBS - 1
+    return out
+
+
+class GridGraph:
+    """The 8-connected graph of the passable cells of a cost grid, as a SciPy CSR matrix.
+
+    cell_cost: (H, W) float, inf for forbidden cells. node_of: (H*W,) node index or -1;
+    cells: (n,) flat cell index of each node.
+    """
+
+    def __init__(self, cell_cost):
+        cost = np.asarray(cell_cost, dtype=np.float64)
+        self.shape = cost.shape
+        h, w = cost.shape
+        passable = np.isfinite(cost)
+        self.cells = np.flatnonzero(passable.ravel())
+        self.node_of = np.full(h * w, -1, dtype=np.int64)
+        self.node_of[self.cells] = np.arange(self.cells.size)
+        rows, cols, wts = [], [], []
+        flat_cost = cost.ravel()
+        # Each undirected edge once (right, up, up-right, up-left), then both directions.
+        for dx, dy in ((1, 0), (0, 1), (1, 1), (-1, 1)):
+            ys0, ys1 = 0, h - dy
+            xs0, xs1 = max(0, -dx), w - max(0, dx)
+            a = passable[ys0:ys1, xs0:xs1] & passable[ys0 + dy:ys1 + dy, xs0 + dx:xs1 + dx]
+            yy, xx = np.nonzero(a)
+            ia = (yy + ys0) * w + (xx + xs0)
+            ib = ia + dy * w + dx
+            length = SQRT2 if (dx and dy) else 1.0
+            wt = 0.5 * (flat_cost[ia] + flat_cost[ib]) * length
+            na, nb = self.node_of[ia], self.node_of[ib]
+            rows += [na, nb]
+            cols += [nb, na]
+            wts += [wt, wt]
+        n = self.cells.size
+        self.matrix = sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))),
+                                    shape=(n, n))
+
+    def potential(self, source_cell, limit=np.inf):
+        """Dijkstra distances (H, W) from flat cell index source_cell; POT_HIGH where unreached."""
+        pot = np.full(self.shape[0] * self.shape[1], POT_HIGH)
+        src = self.node_of[source_cell]
+        if src < 0:
+            return pot.reshape(self.shape)
+        d = _sp_dijkstra(self.matrix, directed=True, indices=int(src), limit=limit)
+        reached = np.isfinite(d)
+        pot[self.cells[reached]] = d[reached]
+        return pot.reshape(self.shape)
+
+
+def dijkstra_reference(cell_cost, source):
+    """Slow, obvious Dijkstra on the same 8-connected graph (the test oracle).
+
+    cell_cost: (H, W) float, inf forbidden; source: (x, y) cell. Returns (H, W)
+    potentials, POT_HIGH where unreached.
+    """
+    h, w = len(cell_cost), len(cell_cost[0])
+    pot = [[POT_HIGH] * w for _ in range(h)]
+    sx, sy = source
+    if not math.isfinite(cell_cost[sy][sx]):
+        return np.array(pot)
+    pot[sy][sx] = 0.0
+    heap = [(0.0, sx, sy)]
+    done = set()
+    while heap:
+        p, x, y = heapq.heappop(heap)
+        if (x, y) in done:
+            continue
+        done.add((x, y))
+        for dx, dy in NEIGHBOURS:
+            nx, ny = x + dx, y + dy
+            if 0 <= nx < w and 0 <= ny < h and math.isfinite(cell_cost[ny][nx]):
+                step = SQRT2 if (dx and dy) else 1.0
+                q = p + 0.5 * (cell_cost[y][x] + cell_cost[ny][nx]) * step
+                if q < pot[ny][nx]:
+                    pot[ny][nx] = q
+                    heapq.heappush(heap, (q, nx, ny))
+    return np.array(pot)
+
+
+def potential_gradient(pot):
+    """navfn's gradCell for every cell: unit downhill gradient (gx, gy) (H, W) each.
+
+    Central differences over the reachable neighbours only; zero where no neighbour is
+    reachable. (gradient_path computes the same per cell, lazily, along the path.)
+    """
+    p = np.asarray(pot, dtype=np.float64)
+    ok = p < POT_HIGH
+    pad = np.pad(p, 1, constant_values=POT_HIGH)
+    okp = pad < POT_HIGH
+    left, right = pad[1:-1, :-2], pad[1:-1, 2:]
+    down, up = pad[:-2, 1:-1], pad[2:, 1:-1]
+    gx = np.where(okp[1:-1, :-2], left - p, 0.0) + np.where(okp[1:-1, 2:], p - right, 0.0)
+    gy = np.where(okp[:-2, 1:-1], down - p, 0.0) + np.where(okp[2:, 1:-1], p - up, 0.0)
+    gx[~ok] = 0.0
+    gy[~ok] = 0.0
+    norm = np.hypot(gx, gy)
+    nz = norm > 0
+    gx[nz] /= norm[nz]
+    gy[nz] /= norm[nz]
+    return gx, gy
+
+
+def _grad_cell(flat, w, c, cache):
+    """Unit downhill gradient of reached, non-border cell c (flat index), memoized."""
+    g = cache.get(c)
+    if g is None:
+        p = flat[c]
+        left, right, down, up = flat[c - 1], flat[c + 1], flat[c - w], flat[c + w]
+        gx = (left - p if left < POT_HIGH else 0.0) + (p - right if right < POT_HIGH else 0.0)
+        gy = (down - p if down < POT_HIGH else 0.0) + (p - up if up < POT_HIGH else 0.0)
+        n = math.hypot(gx, gy)
+        g = (gx / n, gy / n) if n > 0 else (0.0, 0.0)
+        cache[c] = g
+    return g
+
+
+def gradient_path(pot, start_cell, max_cycles=None):
+    """navfn's calcPath: descend the potential from start_cell to the source (potential 0).
+
+    pot: (H, W) potentials (POT_HIGH unreached); start_cell: (x, y). Returns (N, 2)
+    continuous cell coordinates (cell centres at integers) or None when the descent
+    fails (unreached start, zero gradient, too many cycles).
+    """
+    pot = np.asarray(pot, dtype=np.float64)
+    h, w = pot.shape
+    sx, sy = start_cell
+    if pot[sy, sx] >= POT_HIGH:
+        return None
+    unreached = (pot >= POT_HIGH).astype(np.uint8)
+    # near[c]: some 8-neighbour of c is unreached (or off the grid): take grid steps there.
+    near = cv2.dilate(np.pad(unreached, 1, constant_values=1), np.ones((3, 3), np.uint8))[1:-1, 1:-1]
+    near = near.ravel()
+    flat = pot.ravel()
+    cache = {}
+    if max_cycles is None:
+        max_cycles = 4 * (h + w) + h * w // 50
+    px, py = float(sx), float(sy)
+    path = [(px, py)]
+    for _ in range(max_cycles):
+        cx, cy = int(math.floor(px + 0.5)), int(math.floor(py + 0.5))
+        c = cy * w + cx
+        if flat[c] < COST_NEUTRAL:  # in the source cell
+            path.append((float(cx), float(cy)))
+            return np.array(path)
+        oscillating = len(path) > 2 and path[-1] == path[-3]
+        if near[c] or oscillating:
+            best, bx, by = flat[c], cx, cy
+            for dx, dy in NEIGHBOURS:
+                nx, ny = cx + dx, cy + dy
+                if 0 <= nx < w and 0 <= ny < h and flat[ny * w + nx] < best:
+                    best, bx, by = flat[ny * w + nx], nx, ny
+            if (bx, by) == (cx, cy):
+                return None  # local minimum: cannot happen on a Dijkstra potential
+            px, py = float(bx), float(by)
+        else:
+            # Bilinear interpolation of the four cells around the point; all reached,
+            # because they are neighbours of c, which is not near an unreached cell.
+            ix, iy = int(math.floor(px)), int(math.floor(py))
+            fx, fy = px - ix, py - iy
+            i00 = iy * w + ix
+            g00 = _grad_cell(flat, w, i00, cache)
+            g10 = _grad_cell(flat, w, i00 + 1, cache)
+            g01 = _grad_cell(flat, w, i00 + w, cache)
+            g11 = _grad_cell(flat, w, i00 + w + 1, cache)
+            vx = (1 - fy) * ((1 - fx) * g00[0] + fx * g10[0]) + fy * ((1 - fx) * g01[0] + fx * g11[0])
+            vy = (1 - fy) * ((1 - fx) * g00[1] + fx * g10[1]) + fy * ((1 - fx) * g01[1] + fx * g11[1])
+            norm = math.hypot(vx, vy)
+            if norm == 0.0:
+                return None
+            px += PATH_STEP * vx / norm
+            py += PATH_STEP * vy / norm
+        path.append((px, py))
+    return None
+
+
+def grid_descent_path(pot, start_cell):
+    """Steepest-descent path over 8-neighbours (cell centres) from start_cell to the source."""
+    pot = np.asarray(pot)
+    h, w = pot.shape
+    x, y = start_cell
+    path = [(x, y)]
+    while pot[y, x] > 0:
+        best, bx, by = pot[y, x], x, y
+        for dx, dy in NEIGHBOURS:
+            nx, ny = x + dx, y + dy
+            if 0 <= nx < w and 0 <= ny < h and pot[ny, nx] < best:
+                best, bx, by = pot[ny, nx], nx, ny
+        if (bx, by) == (x, y):
+            return None
+        x, y = bx, by
+        path.append((x, y))
+    return np.array(path, dtype=np.float64)
+
+
+def path_length(path):
+    """Length [same unit as path] of a polyline (N, 2)."""
+    p = np.asarray(path, dtype=np.float64)
+    if len(p) < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(p, axis=0).T).sum())
+
+
+def grid_geodesic_length(passable, start_cell, goal_cell):
+    """Exact shortest 8-connected path length [cells] between two cells of a bool grid.
+
+    The benchmark's reference: unit cost per cell step (sqrt 2 diagonally); inf when
+    unreachable.
+    """
+    cost = np.where(np.asarray(passable, dtype=bool), 1.0, np.inf)
+    g = GridGraph(cost)
+    h, w = cost.shape
+    pot = g.potential(start_cell[1] * w + start_cell[0])
+    v = pot[goal_cell[1], goal_cell[0]]
+    return float(v) if v < POT_HIGH else math.inf
+
+
+class NavFn:
+    """The NavFn global planner (base_global_planner's makePlan, without ROS).
+
+    config: a NavfnConfig. The grid graph is cached between plans while the costmap's
+    costs do not change.
+    """
+
+    def __init__(self, config=None):
+        self.config = config or NavfnConfig()
+        self._cache_key = None
+        self._cache_costs = None
+        self._graph = None
+
+    def _graph_for(self, cell_cost):
+        if self._cache_costs is not None and self._cache_costs.shape == cell_cost.shape \
+                and np.array_equal(self._cache_costs, cell_cost):
+            return self._graph
+        self._graph = GridGraph(cell_cost)
+        self._cache_costs = cell_cost.copy()
+        return self._graph
+
+    def make_plan(self, costmap, start, goal, tolerance=None):
+        """Plan on costmap (a Costmap2D) from start (x, y) [m] to goal (x, y) [m].
+
+        tolerance [m]: overrides default_tolerance. Returns a PlanResult; its reason says
+        why there is no plan (bad or off-map input, start in a lethal cell, goal in an
+        obstacle / unknown space / unreachable).
+        """
+        cfg = self.config
+        tol = cfg.default_tolerance if tolerance is None else float(tolerance)
+        for what, p in (("start", start), ("goal", goal)):
+            if len(p) < 2 or not all(math.isfinite(float(v)) for v in p[:2]):
+                return PlanResult(reason=f"{what} {tuple(p)} is not a finite point")
+        sc = costmap.world_to_map(start[0], start[1])
+        if sc is None:
+            return PlanResult(reason=f"start ({start[0]:.2f}, {start[1]:.2f}) is off the costmap")
+        gc = costmap.world_to_map(goal[0], goal[1])
+        if gc is None:
+            return PlanResult(reason=f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is off the costmap")
+        data = costmap.data
+        if data[sc[1], sc[0]] == LETHAL_OBSTACLE:
+            return PlanResult(reason="start is in a lethal cell (the robot is in collision)")
+        cell_cost = navfn_costs(data, cfg.allow_unknown)
+        if not np.isfinite(cell_cost[sc[1], sc[0]]):
+            cell_cost = _open_start_region(data, cell_cost, sc)
+        h, w = data.shape
+        graph = self._graph_for(cell_cost)
+        pot = graph.potential(sc[1] * w + sc[0])
+        target = gc
+        if pot[gc[1], gc[0]] >= POT_HIGH:
+            target = _nearest_reached(pot, costmap, goal, tol) if tol > 0 else None
+            if target is None:
+                return PlanResult(reason=_why_unreachable(data[gc[1], gc[0]], cfg.allow_unknown, tol),
+                                  potential=pot if cfg.visualize_potential else None)
+        cells = gradient_path(pot, target)
+        if cells is None or not _all_reached(pot, cells):
+            cells = grid_descent_path(pot, target)  # always succeeds on a Dijkstra potential
+        if cells is None:
+            return PlanResult(reason="no path: the gradient descent failed")
+        res = costmap.resolution
+        world = np.column_stack([costmap.origin_x + (cells[:, 0] + 0.5) * res,
+                                 costmap.origin_y + (cells[:, 1] + 0.5) * res])[::-1]
+        goal_xy = (float(goal[0]), float(goal[1])) if target == gc else \
+            costmap.map_to_world(*target)
+        world[0] = (float(start[0]), float(start[1]))
+        world[-1] = goal_xy
+        return PlanResult(path=world, goal=goal_xy, length=path_length(world),
+                          potential=pot if cfg.visualize_potential else None)
+
+
+def _all_reached(pot, cells):
+    idx = np.floor(cells + 0.5).astype(np.int64)
+    return bool((pot[idx[:, 1], idx[:, 0]] < POT_HIGH).all())
+
+
+def _open_start_region(data, cell_cost, sc):
+    """Make the forbidden, non-lethal region around the start passable at COST_OBS - 1."""
+    blocked = (~np.isfinite(cell_cost)) & (data != LETHAL_OBSTACLE)
+    mask = np.zeros((data.shape[0] + 2, data.shape[1] + 2), np.uint8)
+    img = blocked.astype(np.uint8)
+    cv2.floodFill(img, mask, (int(sc[0]), int(sc[1])), 2, flags=8)
+    region = img == 2
+    out = cell_cost.copy()
+    out[region] = COST_OBS - 1
+    return out
+
+
+def _nearest_reached(pot, costmap, goal, tol):
+    """navfn_ros: the reached cell nearest the goal within a tol [m] square, or None."""
+    res = costmap.resolution
+    gx = (goal[0] - costmap.origin_x) / res - 0.5
+    gy = (goal[1] - costmap.origin_y) / res - 0.5
+    r = tol / res
+    x0, x1 = max(0, int(math.ceil(gx - r))), min(costmap.size_x - 1, int(math.floor(gx + r)))
+    y0, y1 = max(0, int(math.ceil(gy - r))), min(costmap.size_y - 1, int(math.floor(gy + r)))
+    if x1 < x0 or y1 < y0:
+        return None
+    sub = pot[y0:y1 + 1, x0:x1 + 1]
+    yy, xx = np.mgrid[y0:y1 + 1, x0:x1 + 1]
+    d2 = (xx - gx) ** 2 + (yy - gy) ** 2
+    d2 = np.where(sub < POT_HIGH, d2, np.inf)
+    k = int(np.argmin(d2))
+    if not np.isfinite(d2.flat[k]):
+        return None
+    return int(xx.flat[k]), int(yy.flat[k])
+
+
+def _why_unreachable(goal_cost, allow_unknown, tol):
+    extra = f" and no reachable cell within default_tolerance {tol:.2f} m" if tol > 0 else ""
+    if goal_cost == LETHAL_OBSTACLE:
+        return "goal is in an obstacle (lethal cell)" + extra
+    if goal_cost == INSCRIBED_INFLATED_OBSTACLE:
+        return "goal is too close to an obstacle (inscribed cell)" + extra
+    if goal_cost == NO_INFORMATION and not allow_unknown:
+        return "goal is in unknown space and allow_unknown is false" + extra
+    return "no path: the goal is not reachable from the start" + extra

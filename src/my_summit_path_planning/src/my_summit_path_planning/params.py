@@ -1,0 +1,240 @@
+"""Typed configs from move_base's YAML parameter layout, with clear errors.
+
+Reference: the parameter pages of move_base, costmap_2d, navfn and dwa_local_planner
+(wiki.ros.org) and the course's file layout: costmap_common_params.yaml is loaded into
+both the ``global_costmap`` and ``local_costmap`` namespaces, navfn's parameters live
+under ``NavfnROS``, DWA's under ``DWAPlannerROS``.
+
+Each parameter is declared once, in its dataclass, with type, unit and default. An
+unknown name or a value of the wrong type raises ParamError naming the file section,
+the parameter and what is allowed. DWA's older (Kinetic) names are accepted as aliases.
+"""
+import dataclasses
+import math
+import os
+from dataclasses import dataclass, field
+
+import yaml
+
+from .cost_values import FREE_SPACE, NO_INFORMATION
+from .costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
+from .dwa import DWAConfig
+from .navfn import NavfnConfig
+
+CONFIG_FILES = ("move_base_params.yaml", "costmap_common_params.yaml",
+                "global_costmap_params.yaml", "local_costmap_params.yaml",
+                "navfn_global_planner_params.yaml", "dwa_local_planner_params.yaml")
+
+# dwa_local_planner's pre-Melodic names -> current names.
+DWA_ALIASES = {"max_trans_vel": "max_vel_trans", "min_trans_vel": "min_vel_trans",
+               "max_rot_vel": "max_vel_theta", "min_rot_vel": "min_vel_theta",
+               "rot_stopped_vel": "theta_stopped_vel", "acc_lim_th": "acc_lim_theta",
+               "vtheta_samples": "vth_samples"}
+
+
+class ParamError(ValueError):
+    """A parameter that is unknown, of the wrong type or out of range."""
+
+
+@dataclass
+class MoveBaseConfig:
+    """move_base's own parameters."""
+
+    base_global_planner: str = "navfn/NavfnROS"
+    base_local_planner: str = "dwa_local_planner/DWAPlannerROS"
+    recovery_behaviors: list = None        # None: move_base's default sequence
+    controller_frequency: float = 20.0     # [Hz]
+    planner_patience: float = 5.0          # [s]
+    controller_patience: float = 15.0      # [s]
+    conservative_reset_dist: float = 3.0   # [m]
+    recovery_behavior_enabled: bool = True
+    clearing_rotation_allowed: bool = True
+    shutdown_costmaps: bool = False
+    oscillation_timeout: float = 0.0       # [s] 0 = off
+    oscillation_distance: float = 0.5      # [m]
+    planner_frequency: float = 0.0         # [Hz] 0 = plan only on new goals
+    max_planning_retries: int = -1         # -1 = unlimited
+
+
+@dataclass
+class CostmapConfig:
+    """costmap_2d's parameters for one costmap (after merging the common file)."""
+
+    global_frame: str = "map"
+    robot_base_frame: str = "base_link"
+    transform_tolerance: float = 0.2       # [s]
+    update_frequency: float = 5.0          # [Hz]
+    publish_frequency: float = 0.0         # [Hz]
+    static_map: bool = True                # pre-hydro flag, kept for the course's files
+    rolling_window: bool = False
+    always_send_full_costmap: bool = False
+    track_unknown_space: bool = False
+    width: float = 10.0                    # [m]
+    height: float = 10.0                   # [m]
+    resolution: float = 0.05               # [m/cell]
+    origin_x: float = 0.0                  # [m]
+    origin_y: float = 0.0                  # [m]
+    footprint: object = None               # [[x, y], ...] [m] or its string
+    robot_radius: float = 0.46             # [m] used when footprint is unset
+    footprint_padding: float = 0.01        # [m]
+    plugins: list = field(default_factory=list)
+    layer_params: dict = field(default_factory=dict)  # {layer name: {param: value}}
+
+
+_TYPES = {bool: (bool,), int: (int,), float: (int, float), str: (str,)}
+
+
+def _coerce(cls_name, f, value, where):
+    t = f.type if not isinstance(f.type, str) else {"bool": bool, "int": int, "float": float,
+                                                     "str": str}.get(f.type)
+    if t in _TYPES:
+        ok = isinstance(value, _TYPES[t]) and not (t is not bool and isinstance(value, bool))
+        if not ok:
+            raise ParamError(f"{where}: '{f.name}' must be {t.__name__}, got {value!r}")
+        if t is float:
+            value = float(value)
+            if not math.isfinite(value):
+                raise ParamError(f"{where}: '{f.name}' must be finite, got {value!r}")
+    return value
+
+
+def from_dict(cls, params, where, aliases=None, extra_ok=()):
+    """Build dataclass cls from a parameter dict; ParamError on unknown names or bad types."""
+    if params is None:
+        params = {}
+    if not isinstance(params, dict):
+        raise ParamError(f"{where}: expected a mapping of parameters, got {params!r}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    kwargs = {}
+    for key, value in params.items():
+        name = (aliases or {}).get(key, key)
+        if name in extra_ok:
+            continue
+        if name not in fields:
+            raise ParamError(f"{where}: unknown parameter '{key}'; known: {sorted(fields)}")
+        kwargs[name] = _coerce(cls.__name__, fields[name], value, where)
+    return cls(**kwargs)
+
+
+def _positive(where, **values):
+    for k, v in values.items():
+        if not v > 0:
+            raise ParamError(f"{where}: '{k}' must be > 0, got {v}")
+
+
+def dwa_config(params, where="DWAPlannerROS"):
+    """DWAConfig from the DWAPlannerROS dict (aliases accepted), checked."""
+    cfg = from_dict(DWAConfig, params, where, DWA_ALIASES)
+    _positive(where, controller_frequency=cfg.controller_frequency, sim_time=cfg.sim_time,
+              sim_granularity=cfg.sim_granularity, angular_sim_granularity=cfg.angular_sim_granularity,
+              max_vel_theta=cfg.max_vel_theta, acc_lim_x=cfg.acc_lim_x, acc_lim_theta=cfg.acc_lim_theta)
+    if cfg.min_vel_x > cfg.max_vel_x or cfg.min_vel_y > cfg.max_vel_y:
+        raise ParamError(f"{where}: min_vel_x/y must not exceed max_vel_x/y")
+    for k in ("vx_samples", "vy_samples", "vth_samples"):
+        if getattr(cfg, k) < 1:
+            raise ParamError(f"{where}: '{k}' must be >= 1, got {getattr(cfg, k)}")
+    return cfg
+
+
+def navfn_config(params, where="NavfnROS"):
+    """NavfnConfig from the NavfnROS dict, checked."""
+    cfg = from_dict(NavfnConfig, params, where)
+    if cfg.default_tolerance < 0:
+        raise ParamError(f"{where}: 'default_tolerance' must be >= 0, got {cfg.default_tolerance}")
+    return cfg
+
+
+def costmap_config(params, where):
+    """CostmapConfig from one costmap namespace; layer namespaces go to layer_params."""
+    params = dict(params or {})
+    plugins = params.get("plugins", [])
+    if not isinstance(plugins, list):
+        raise ParamError(f"{where}: 'plugins' must be a list of {{name, type}}")
+    layer_names = []
+    for i, p in enumerate(plugins):
+        if not isinstance(p, dict) or not isinstance(p.get("name"), str) or not isinstance(p.get("type"), str):
+            raise ParamError(f"{where}: plugins[{i}] must have string 'name' and 'type', got {p!r}")
+        layer_names.append(p["name"])
+    # Layer namespaces of the common file are kept even when this costmap does not use them.
+    layer_params = {k: v for k, v in params.items() if isinstance(v, dict)}
+    rest = {k: v for k, v in params.items() if not isinstance(v, dict)}
+    cfg = from_dict(CostmapConfig, rest, where)
+    cfg.layer_params = layer_params
+    _positive(where, resolution=cfg.resolution, width=cfg.width, height=cfg.height)
+    return cfg
+
+
+def build_costmap(cfg, where="costmap"):
+    """A LayeredCostmap from a CostmapConfig (layers from its plugins list)."""
+    try:
+        fp = Footprint.from_params(cfg.footprint, cfg.robot_radius, cfg.footprint_padding)
+        default = NO_INFORMATION if cfg.track_unknown_space else FREE_SPACE
+        nx = max(1, int(round(cfg.width / cfg.resolution)))
+        ny = max(1, int(round(cfg.height / cfg.resolution)))
+        master = Costmap2D(nx, ny, cfg.resolution, cfg.origin_x, cfg.origin_y, default)
+        return LayeredCostmap.from_plugins(cfg.plugins, cfg.layer_params, master, fp,
+                                           rolling_window=cfg.rolling_window)
+    except CostmapError as e:
+        raise ParamError(f"{where}: {e}") from None
+
+
+@dataclass
+class MoveBaseParams:
+    """Everything move_base reads, typed."""
+
+    move_base: MoveBaseConfig
+    global_costmap: CostmapConfig
+    local_costmap: CostmapConfig
+    navfn: NavfnConfig
+    dwa: DWAConfig
+
+
+def _read(path):
+    try:
+        with open(path) as f:
+            doc = yaml.safe_load(f)
+    except OSError as e:
+        raise ParamError(f"{path}: cannot read: {e}") from None
+    except yaml.YAMLError as e:
+        raise ParamError(f"{path}: malformed YAML: {e}") from None
+    if doc is None:
+        return {}
+    if not isinstance(doc, dict):
+        raise ParamError(f"{path}: expected a mapping of parameters")
+    return doc
+
+
+def load_move_base_params(config_dir):
+    """Read the course's six YAML files from config_dir, as move_base.launch loads them."""
+    docs = {}
+    for name in CONFIG_FILES:
+        path = os.path.join(config_dir, name)
+        if not os.path.isfile(path):
+            raise ParamError(f"{path}: missing (expected the files {CONFIG_FILES})")
+        docs[name] = _read(path)
+    common = docs["costmap_common_params.yaml"]
+    costmaps = {}
+    for ns, fname in (("global_costmap", "global_costmap_params.yaml"),
+                      ("local_costmap", "local_costmap_params.yaml")):
+        if ns not in docs[fname]:
+            raise ParamError(f"{fname}: expected the '{ns}' namespace at the top")
+        merged = _deep_merge(common, docs[fname][ns])
+        costmaps[ns] = costmap_config(merged, f"{fname}: {ns}")
+    nav_doc = docs["navfn_global_planner_params.yaml"]
+    dwa_doc = docs["dwa_local_planner_params.yaml"]
+    if "NavfnROS" not in nav_doc:
+        raise ParamError("navfn_global_planner_params.yaml: expected the 'NavfnROS' namespace")
+    if "DWAPlannerROS" not in dwa_doc:
+        raise ParamError("dwa_local_planner_params.yaml: expected the 'DWAPlannerROS' namespace")
+    return MoveBaseParams(
+        move_base=from_dict(MoveBaseConfig, docs["move_base_params.yaml"], "move_base_params.yaml"),
+        global_costmap=costmaps["global_costmap"], local_costmap=costmaps["local_costmap"],
+        navfn=navfn_config(nav_doc["NavfnROS"], "navfn_global_planner_params.yaml: NavfnROS"),
+        dwa=dwa_config(dwa_doc["DWAPlannerROS"], "dwa_local_planner_params.yaml: DWAPlannerROS"))
+
+
+def _deep_merge(base, over):
+    out = dict(base)
+    for k, v in (over or {}).items():
+        out[k] = _deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out

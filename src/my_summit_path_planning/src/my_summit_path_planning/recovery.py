@@ -1,0 +1,179 @@
+"""move_base's recovery behaviours: clear the costmaps, rotate in place.
+
+Reference: ROS 1 navigation ``clear_costmap_recovery`` (reset_distance, layer_names,
+clearing the layer *outside* a reset_distance square centred on the robot) and
+``rotate_recovery`` (a full turn in place at a speed bounded by the acceleration needed
+to stop, aborted when the footprint would hit something); move_base's default
+sequence: conservative reset (reset_distance = conservative_reset_dist), rotate,
+aggressive reset (reset_distance = 4 x circumscribed radius), rotate.
+
+Pure: a recovery gets its costmaps, pose and velocity passed in and returns commands;
+the node publishes them. Each behaviour has the same small shape: ``start(pose)``, then
+``step(pose, velocity, costmap) -> RecoveryStep`` until ``done``.
+"""
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
+
+DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
+AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
+FULL_TURN = 2.0 * math.pi                 # [rad]
+
+
+@dataclass
+class RecoveryStep:
+    """One step of a recovery: cmd (vx, vy, vth); done; ok False when it had to give up."""
+
+    cmd: tuple = (0.0, 0.0, 0.0)
+    done: bool = False
+    ok: bool = True
+    reason: str = ""
+
+
+def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_LAYER_NAMES,
+                         force_clear_all=False):
+    """Clear obstacle layers outside a reset_distance [m] square around the robot.
+
+    layered: LayeredCostmap; robot_xy (x, y) [m] in its frame; layer_names: the layers
+    to clear (missing names are skipped, as clear_costmap_recovery warns and goes on);
+    force_clear_all: clear the whole layer (reset_distance ignored). Returns the names
+    of the layers cleared. The master grid is rebuilt at the next update_map.
+    """
+    cleared = []
+    m = layered.master
+    half = 0.5 * float(reset_distance)
+    x0, y0 = m.world_to_map_no_bounds(robot_xy[0] - half, robot_xy[1] - half)
+    x1, y1 = m.world_to_map_no_bounds(robot_xy[0] + half, robot_xy[1] + half)
+    for layer in layered.layers:
+        if layer.name not in layer_names or not hasattr(layer, "clear_window"):
+            continue
+        if force_clear_all:
+            layer.reset()
+        else:
+            layer.clear_window((x0, y0, x1 + 1, y1 + 1), invert=True)
+        cleared.append(layer.name)
+    # The master is redrawn whole at the next update_map, so cleared cells vanish.
+    layered.force_full_update = True
+    return cleared
+
+
+class ClearCostmapRecovery:
+    """clear_costmap_recovery as a one-step behaviour over the global and local costmaps.
+
+    reset_distance [m]; layer_names; force_clear_all (aggressive variant clearing the
+    whole layers, as the brief of our move_base allows).
+    """
+
+    def __init__(self, global_costmap, local_costmap, reset_distance=3.0,
+                 layer_names=DEFAULT_LAYER_NAMES, force_clear_all=False):
+        self.costmaps = [c for c in (global_costmap, local_costmap) if c is not None]
+        self.reset_distance = reset_distance
+        self.layer_names = tuple(layer_names)
+        self.force_clear_all = force_clear_all
+        self.cleared = []
+
+    def start(self, pose):
+        self._pose = pose
+
+    def step(self, pose, velocity=None, costmap=None):
+        self.cleared = []
+        for c in self.costmaps:
+            self.cleared += clear_costmap_layers(c, pose[:2], self.reset_distance,
+                                                 self.layer_names, self.force_clear_all)
+        return RecoveryStep(done=True)
+
+
+class RotateRecovery:
+    """rotate_recovery: turn a full circle in place, checking the footprint ahead.
+
+    Parameters (rotate_recovery / base_local_planner names): sim_granularity [m]
+    (footprint check spacing along the turn, as an arc at the circumscribed radius),
+    frequency [Hz], acc_lim_th [rad/s^2], max_rotational_vel [rad/s],
+    min_in_place_rotational_vel [rad/s], yaw_goal_tolerance [rad]; footprint: Footprint.
+    """
+
+    def __init__(self, footprint, sim_granularity=0.017, frequency=20.0, acc_lim_th=3.2,
+                 max_rotational_vel=1.0, min_in_place_rotational_vel=0.4,
+                 yaw_goal_tolerance=0.10, check_ahead=math.pi / 2.0):
+        self.footprint = footprint
+        self.sim_granularity = sim_granularity
+        self.frequency = frequency
+        self.acc_lim_th = acc_lim_th
+        self.max_rotational_vel = max_rotational_vel
+        self.min_in_place_rotational_vel = min_in_place_rotational_vel
+        self.tolerance = yaw_goal_tolerance
+        self.check_ahead = check_ahead  # [rad] of turn checked for collisions each step
+        self.turned = 0.0
+        self.prev_yaw = None
+
+    def start(self, pose):
+        """Begin a full turn from pose (x, y, yaw)."""
+        self.turned = 0.0
+        self.prev_yaw = pose[2]
+
+    def step(self, pose, velocity, costmap):
+        """Command for this period; done after a full turn, ok False when blocked."""
+        if self.prev_yaw is None:
+            self.start(pose)
+        d = (pose[2] - self.prev_yaw + math.pi) % (2.0 * math.pi) - math.pi
+        self.turned += abs(d)
+        self.prev_yaw = pose[2]
+        left = FULL_TURN - self.turned
+        if left <= self.tolerance:
+            return RecoveryStep(done=True)
+        if not self._free(pose, min(left, self.check_ahead), costmap):
+            return RecoveryStep(done=True, ok=False,
+                                reason="rotate recovery stopped: turning would hit an obstacle")
+        vel = math.sqrt(2.0 * self.acc_lim_th * left)
+        vel = min(max(vel, self.min_in_place_rotational_vel), self.max_rotational_vel)
+        return RecoveryStep(cmd=(0.0, 0.0, vel))
+
+    def _free(self, pose, angle, costmap):
+        data = costmap.data
+        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
+        if not blocked.any():
+            return True
+        dist = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
+                                     cv2.DIST_MASK_PRECISE) * costmap.resolution
+        centres, r = self.footprint.covering_circles()
+        step = self.sim_granularity / max(self.footprint.circumscribed_radius, 1e-6)
+        n = max(1, int(math.ceil(angle / step)))
+        res = costmap.resolution
+        h, w = data.shape
+        for th in pose[2] + angle * np.arange(1, n + 1) / n:
+            c, s = math.cos(th), math.sin(th)
+            px = pose[0] + centres[:, 0] * c - centres[:, 1] * s
+            py = pose[1] + centres[:, 0] * s + centres[:, 1] * c
+            mx = np.floor((px - costmap.origin_x) / res).astype(int)
+            my = np.floor((py - costmap.origin_y) / res).astype(int)
+            if ((mx < 0) | (my < 0) | (mx >= w) | (my >= h)).any():
+                return False
+            if (dist[my, mx] < r + 0.5 * res).any():
+                return False
+        return True
+
+
+def default_recovery_sequence(global_costmap, local_costmap, footprint, conservative_reset_dist=3.0,
+                              rotate_kwargs=None, clearing_rotation_allowed=True,
+                              layer_names=DEFAULT_LAYER_NAMES):
+    """move_base's default recoveries in order: [(name, behaviour), ...].
+
+    conservative_reset (reset_distance = conservative_reset_dist), rotate_recovery,
+    aggressive_reset (reset_distance = 4 x circumscribed radius), rotate_recovery; the
+    rotations are left out when clearing_rotation_allowed is false.
+    """
+    rk = rotate_kwargs or {}
+    seq = [("conservative_reset", ClearCostmapRecovery(global_costmap, local_costmap,
+                                                       conservative_reset_dist, layer_names))]
+    if clearing_rotation_allowed:
+        seq.append(("rotate_recovery", RotateRecovery(footprint, **rk)))
+    seq.append(("aggressive_reset", ClearCostmapRecovery(
+        global_costmap, local_costmap, AGGRESSIVE_RADIUS_FACTOR * footprint.circumscribed_radius,
+        layer_names)))
+    if clearing_rotation_allowed:
+        seq.append(("rotate_recovery", RotateRecovery(footprint, **rk)))
+    return seq

@@ -1,0 +1,34 @@
+"""Shared fixtures: small in-memory grids and the Summit XL footprint (no ROS master)."""
+import numpy as np
+import pytest
+
+from my_summit_path_planning.costmap import Costmap2D, Footprint, LayeredCostmap
+from my_summit_path_planning import cost_values as cv
+
+SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
+
+
+@pytest.fixture
+def footprint():
+    """The Summit XL footprint, unpadded."""
+    return Footprint.from_params(SUMMIT_FOOTPRINT)
+
+
+@pytest.fixture
+def make_static_costmap():
+    """The static_costmap builder (pytest's importlib mode cannot import conftest)."""
+    return static_costmap
+
+
+def static_costmap(occ, footprint, resolution=0.05, origin=(0.0, 0.0, 0.0), inflation=None,
+                   track_unknown=True):
+    """A global-style LayeredCostmap (static + inflation) over an int8 OccupancyGrid array."""
+    plugins = [{"name": "static_layer", "type": "costmap_2d::StaticLayer"},
+               {"name": "inflation_layer", "type": "costmap_2d::InflationLayer"}]
+    params = {"static_layer": {"track_unknown_space": track_unknown},
+              "inflation_layer": inflation or {"inflation_radius": 0.55, "cost_scaling_factor": 10.0}}
+    default = cv.NO_INFORMATION if track_unknown else cv.FREE_SPACE
+    lc = LayeredCostmap.from_plugins(plugins, params, Costmap2D(1, 1, resolution, 0, 0, default), footprint)
+    lc.layer("static_layer").set_map(np.asarray(occ, np.int8), resolution, origin)
+    lc.update_map(0.0, 0.0, 0.0)
+    return lc

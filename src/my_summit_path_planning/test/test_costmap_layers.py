@@ -1,0 +1,167 @@
+"""Costmap2D, layers and the cost translation table, against costmap_2d's documented behaviour."""
+import math
+
+import numpy as np
+import numpy.testing as npt
+import pytest
+
+from my_summit_path_planning import cost_values as cv
+from my_summit_path_planning.costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
+from my_summit_path_planning.layers import (ObstacleLayer, inflation_cost, ray_cells,
+                                            raytrace_reference, scan_to_observation)
+
+SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
+
+
+def test_translation_table():
+    t = cv.COST_TRANSLATION_TABLE
+    assert (t[0], t[253], t[254], t[255]) == (0, 99, 100, -1)
+    assert t[1] == 1 and t[252] == 98
+    assert np.all(np.diff(t[1:253].astype(int)) >= 0)
+    with pytest.raises(TypeError):
+        cv.costs_to_occupancy(np.zeros(3, np.int32))
+
+
+def test_world_map_round_trip_and_bounds():
+    c = Costmap2D(10, 5, 0.1, -1.0, 2.0)
+    assert c.world_to_map(-1.0, 2.0) == (0, 0)
+    assert c.world_to_map(-0.01, 2.49) == (9, 4)
+    assert c.world_to_map(0.0, 2.0) is None and c.world_to_map(-1.01, 2.0) is None
+    assert c.world_to_map(float("nan"), 2.0) is None
+    npt.assert_allclose(c.map_to_world(3, 2), (-0.65, 2.25))
+    assert c.get_cost(10, 0) is None
+
+
+def test_footprint_radii_and_padding():
+    fp = Footprint.from_params(SUMMIT_FOOTPRINT)
+    assert fp.inscribed_radius == pytest.approx(0.31)
+    assert fp.circumscribed_radius == pytest.approx(math.hypot(0.36, 0.31))
+    padded = Footprint.from_params(SUMMIT_FOOTPRINT, padding=0.05)
+    assert padded.inscribed_radius == pytest.approx(0.36)
+    r = Footprint.from_params(None, robot_radius=0.3)
+    assert r.inscribed_radius == r.circumscribed_radius == 0.3
+    centres, radius = fp.covering_circles()
+    # Every footprint point lies inside some covering circle.
+    xs, ys = np.meshgrid(np.linspace(-0.36, 0.36, 30), np.linspace(-0.31, 0.31, 30))
+    pts = np.column_stack([xs.ravel(), ys.ravel()])
+    d = np.hypot(pts[:, None, 0] - centres[None, :, 0], pts[:, None, 1] - centres[None, :, 1]).min(axis=1)
+    assert (d <= radius + 1e-9).all()
+    with pytest.raises(CostmapError):
+        Footprint.from_params([[0, 0], [1, 1]])
+
+
+def test_static_layer_values(footprint, make_static_costmap):
+    static_costmap = make_static_costmap
+    occ = np.zeros((40, 40), np.int8)
+    occ[0:5, 0:5] = -1
+    occ[20, 20] = 100
+    lc = static_costmap(occ, footprint)
+    d = lc.master.data
+    assert d[2, 2] == cv.NO_INFORMATION and d[20, 20] == cv.LETHAL_OBSTACLE and d[39, 39] == cv.FREE_SPACE
+    lc2 = static_costmap(occ, footprint, track_unknown=False)
+    assert lc2.master.data[2, 2] == cv.FREE_SPACE
+
+
+def test_inflation_profile_matches_formula(footprint, make_static_costmap):
+    static_costmap = make_static_costmap
+    res, csf, radius = 0.05, 10.0, 0.55
+    occ = np.zeros((61, 61), np.int8)
+    occ[30, 30] = 100
+    lc = static_costmap(occ, footprint, res, inflation={"inflation_radius": radius, "cost_scaling_factor": csf})
+    d = lc.master.data
+    yy, xx = np.mgrid[0:61, 0:61]
+    dist = np.hypot(xx - 30, yy - 30) * res
+    expect = np.where(dist == 0, 254, np.where(dist <= 0.31, 253,
+                      np.floor(252 * np.exp(-csf * (dist - 0.31)))))
+    expect = np.where(dist > math.ceil(radius / res) * res + 1e-9, 0, expect)
+    npt.assert_array_equal(d, expect.astype(np.uint8))
+    assert inflation_cost(0.0, 0.31, csf) == 254
+    assert inflation_cost(0.31, 0.31, csf) == 253
+    assert inflation_cost(0.36, 0.31, csf) == int(252 * math.exp(-csf * 0.05))
+
+
+def test_raycells_match_bresenham():
+    rng = np.random.default_rng(3)
+    ends = rng.integers(-30, 30, size=(200, 2))
+    ray, cx, cy = ray_cells(0, 0, ends[:, 0], ends[:, 1])
+    for i, (ex, ey) in enumerate(ends):
+        got = list(zip(cx[ray == i].tolist(), cy[ray == i].tolist()))
+        ref = raytrace_reference(0, 0, int(ex), int(ey))
+        assert got[0] == ref[0] and got[-1] == ref[-1] and len(got) == len(ref)
+        # Same cells up to rounding at exact ties: never more than one cell apart.
+        assert max(max(abs(a[0] - b[0]), abs(a[1] - b[1])) for a, b in zip(got, ref)) <= 1
+
+
+def _local(footprint, size=80, res=0.05):
+    params = {"obstacle_layer": {"observation_sources": "scan", "scan": {"clearing": True},
+                                 "obstacle_range": 2.5, "raytrace_range": 3.0}}
+    lc = LayeredCostmap.from_plugins([{"name": "obstacle_layer", "type": "costmap_2d::ObstacleLayer"}],
+                                     params, Costmap2D(size, size, res), footprint, rolling_window=True)
+    return lc
+
+
+def test_obstacle_layer_marks_and_clears(footprint):
+    lc = _local(footprint)
+    layer = lc.layer("obstacle_layer")
+    ranges = np.full(9, 1.5)
+    obs = scan_to_observation(ranges, -0.4, 0.1, 0.1, 30.0, (0.0, 0.0, 0.0))
+    layer.add_observation(obs)
+    lc.update_map(0.0, 0.0, 0.0)
+    assert lc.master.cost_at(1.52, 0.0) == cv.LETHAL_OBSTACLE
+    # The obstacle moves away: the next scan clears the old cell.
+    layer.add_observation(scan_to_observation(np.full(9, 1.9), -0.4, 0.1, 0.1, 30.0, (0.0, 0.0, 0.0)))
+    lc.update_map(0.0, 0.0, 0.0)
+    assert lc.master.cost_at(1.52, 0.0) == cv.FREE_SPACE
+    assert lc.master.cost_at(1.92, 0.0) == cv.LETHAL_OBSTACLE
+
+
+def test_inf_readings_clear_but_never_mark(footprint):
+    lc = _local(footprint)
+    layer = lc.layer("obstacle_layer")
+    layer.add_observation(scan_to_observation(np.full(9, 1.5), -0.4, 0.1, 0.1, 30.0, (0.0, 0.0, 0.0)))
+    lc.update_map(0.0, 0.0, 0.0)
+    # All beams now report no return; with inf_is_valid they clear out to raytrace_range.
+    obs = scan_to_observation(np.full(9, np.inf), -0.4, 0.1, 0.1, 30.0, (0.0, 0.0, 0.0),
+                              inf_is_valid=True, obstacle_range=100.0, raytrace_range=3.0)
+    assert not obs.mark.any()
+    layer.add_observation(obs)
+    lc.update_map(0.0, 0.0, 0.0)
+    assert (lc.master.data != cv.LETHAL_OBSTACLE).all()
+    # Without inf_is_valid, inf beams are dropped: no clearing, no marking.
+    obs2 = scan_to_observation(np.full(9, np.inf), -0.4, 0.1, 0.1, 30.0, (0.0, 0.0, 0.0))
+    assert len(obs2.points) == 0
+
+
+def test_rolling_window_shifts_data(footprint):
+    lc = _local(footprint)
+    layer = lc.layer("obstacle_layer")
+    lc.update_map(0.0, 0.0, 0.0)
+    layer.add_observation(scan_to_observation(np.array([1.0]), 0.0, 0.1, 0.1, 30.0, (0.0, 0.0, 0.0)))
+    lc.update_map(0.0, 0.0, 0.0)
+    assert lc.master.cost_at(1.02, 0.0) == cv.LETHAL_OBSTACLE
+    ox = lc.master.origin_x
+    lc.update_map(0.5, 0.25, 0.0)
+    assert lc.master.origin_x == pytest.approx(ox + 0.5)
+    assert lc.master.cost_at(1.02, 0.0) == cv.LETHAL_OBSTACLE   # same world place, new cell
+    cell = lc.master.world_to_map(1.02, 0.0)
+    assert cell == (int((1.02 - lc.master.origin_x) / 0.05), int((0.0 - lc.master.origin_y) / 0.05))
+    lc.update_map(10.0, 0.0, 0.0)  # moved out of the window: forgotten
+    assert (lc.master.data == cv.FREE_SPACE).all()
+
+
+def test_update_origin_keeps_overlap():
+    c = Costmap2D(4, 3, 1.0)
+    c.data[:] = np.arange(12).reshape(3, 4)
+    c.update_origin(1.0, -1.0)
+    npt.assert_array_equal(c.data, [[0, 0, 0, 0], [1, 2, 3, 0], [5, 6, 7, 0]])
+
+
+def test_bad_plugins_and_params(footprint):
+    with pytest.raises(CostmapError, match="unknown type"):
+        LayeredCostmap.from_plugins([{"name": "x", "type": "costmap_2d::VoxelLayerX"}], {},
+                                    Costmap2D(5, 5, 0.1), footprint)
+    with pytest.raises(CostmapError, match="unknown parameter"):
+        LayeredCostmap.from_plugins([{"name": "i", "type": "costmap_2d::InflationLayer"}],
+                                    {"i": {"inflation_radus": 1.0}}, Costmap2D(5, 5, 0.1), footprint)
+    with pytest.raises(CostmapError):
+        ObstacleLayer("o", {"observation_sources": "s", "s": {"data_type": "Sonar"}})

@@ -1,0 +1,100 @@
+"""Recoveries and the typed parameter configs."""
+import math
+import os
+import shutil
+
+import numpy as np
+import pytest
+import yaml
+
+from my_summit_path_planning import cost_values as cv
+from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
+from my_summit_path_planning.layers import scan_to_observation
+from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
+from my_summit_path_planning.recovery import (RotateRecovery, clear_costmap_layers,
+                                              default_recovery_sequence)
+
+CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
+
+
+def _with_obstacles(footprint):
+    lc = LayeredCostmap.from_plugins(
+        [{"name": "obstacle_layer", "type": "costmap_2d::ObstacleLayer"}],
+        {"obstacle_layer": {"observation_sources": "s", "s": {"clearing": True}, "obstacle_range": 10.0}},
+        Costmap2D(200, 200, 0.05, -5.0, -5.0), footprint)
+    ang = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+    lc.layer("obstacle_layer").add_observation(
+        scan_to_observation(np.where(np.abs(ang) < 0.3, 1.0, 4.0), -math.pi, ang[1] - ang[0], 0.1, 30.0, (0, 0, 0),
+                            obstacle_range=10.0, raytrace_range=10.0))
+    lc.update_map(0.0, 0.0, 0.0)
+    return lc
+
+
+def test_conservative_and_aggressive_reset(footprint):
+    lc = _with_obstacles(footprint)
+    assert lc.master.cost_at(0.98, 0.0) == cv.LETHAL_OBSTACLE
+    assert lc.master.cost_at(-4.0, 0.0) == cv.LETHAL_OBSTACLE
+    assert clear_costmap_layers(lc, (0.0, 0.0), 3.0) == ["obstacle_layer"]  # the default layer_names
+    assert clear_costmap_layers(lc, (0.0, 0.0), 3.0, layer_names=("nothing",)) == []
+    lc.update_map(0.0, 0.0, 0.0)
+    assert lc.master.cost_at(0.98, 0.0) == cv.LETHAL_OBSTACLE     # inside the square: kept
+    assert lc.master.cost_at(-4.0, 0.0) == cv.FREE_SPACE          # outside: cleared
+    clear_costmap_layers(lc, (0.0, 0.0), 3.0, ("obstacle_layer",), force_clear_all=True)
+    lc.update_map(0.0, 0.0, 0.0)
+    assert (lc.master.data == cv.FREE_SPACE).all()
+
+
+def test_rotate_recovery_turns_once_and_stops_when_blocked(footprint):
+    free = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    rec = RotateRecovery(footprint)
+    pose = (0.0, 0.0, 0.0)
+    rec.start(pose)
+    for _ in range(400):
+        step = rec.step(pose, (0, 0, 0), free)
+        if step.done:
+            break
+        pose = (0.0, 0.0, pose[2] + step.cmd[2] * 0.05)
+    assert step.done and step.ok
+    blocked = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    blocked.data[50:56, 58:60] = cv.LETHAL_OBSTACLE  # touches the footprint's corner sweep only
+    rec.start((0.0, 0.0, 0.0))
+    assert not rec.step((0.0, 0.0, 0.0), (0, 0, 0), blocked).ok
+    seq = default_recovery_sequence(None, None, footprint)
+    assert [n for n, _ in seq] == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+
+
+def test_config_files_load():
+    p = load_move_base_params(CONFIG)
+    assert p.dwa.max_vel_x == 1.5 and p.dwa.vth_samples == 40
+    assert p.navfn.allow_unknown is False
+    g = build_costmap(p.global_costmap)
+    loc = build_costmap(p.local_costmap)
+    assert [l.name for l in g.layers] == ["static_layer", "obstacle_layer", "inflation_layer"]
+    assert loc.rolling_window and loc.master.size_x == 140
+    assert g.footprint.inscribed_radius == pytest.approx(0.31)
+
+
+@pytest.mark.parametrize("fname,ns,key,value,match", [
+    ("dwa_local_planner_params.yaml", "DWAPlannerROS", "max_vel_xx", 1.0, "unknown parameter"),
+    ("dwa_local_planner_params.yaml", "DWAPlannerROS", "vx_samples", "many", "must be int"),
+    ("navfn_global_planner_params.yaml", "NavfnROS", "allow_unknown", "yes", "must be bool"),
+    ("navfn_global_planner_params.yaml", "NavfnROS", "default_tolerance", -1.0, ">= 0"),
+])
+def test_bad_params_are_named(tmp_path, fname, ns, key, value, match):
+    for f in os.listdir(CONFIG):
+        shutil.copy(os.path.join(CONFIG, f), tmp_path / f)
+    doc = yaml.safe_load(open(tmp_path / fname))
+    doc[ns][key] = value
+    yaml.safe_dump(doc, open(tmp_path / fname, "w"))
+    with pytest.raises(ParamError, match=match):
+        load_move_base_params(str(tmp_path))
+
+
+def test_old_dwa_names_accepted(tmp_path):
+    for f in os.listdir(CONFIG):
+        shutil.copy(os.path.join(CONFIG, f), tmp_path / f)
+    doc = yaml.safe_load(open(tmp_path / "dwa_local_planner_params.yaml"))
+    doc["DWAPlannerROS"]["max_rot_vel"] = 2.0
+    del doc["DWAPlannerROS"]["max_vel_theta"]
+    yaml.safe_dump(doc, open(tmp_path / "dwa_local_planner_params.yaml", "w"))
+    assert load_move_base_params(str(tmp_path)).dwa.max_vel_theta == 2.0
