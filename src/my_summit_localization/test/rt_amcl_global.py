@@ -35,18 +35,24 @@ class AmclGlobal(unittest.TestCase):
         tf2_ros.TransformListener(buf)
         truth = Latest("/base_pose_ground_truth", Odometry)
         amcl_pose = Latest("/amcl_pose", PoseWithCovarianceStamped)
-        cloud = Latest("/particlecloud", PoseArray)
+        # The widest cloud seen since the service call: the filter may collapse the cloud
+        # in its very next update, before a poll of the latest message would see it.
+        widest = {"armed": False, "spread": 0.0}
+
+        def on_cloud(msg):
+            if widest["armed"] and msg.poses:
+                xs = [p.position.x for p in msg.poses]
+                widest["spread"] = max(widest["spread"], max(xs) - min(xs))
+
+        rospy.Subscriber("/particlecloud", PoseArray, on_cloud, queue_size=10)
         m_in_w = map_in_world()
         wait_clock()
         amcl_pose.wait(120.0)
         rospy.wait_for_service("/global_localization", 30.0)
+        widest["armed"] = True
         rospy.ServiceProxy("/global_localization", Empty)()
         t0 = rospy.Time.now()
-
-        def spread():
-            xs = [p.position.x for p in cloud.msg.poses] if cloud.msg else [0.0]
-            return max(xs) - min(xs)
-        wait_for(lambda: spread() > 10.0, "particle cloud spread over the map (> 10 m)", 60.0)
+        wait_for(lambda: widest["spread"] > 10.0, "particle cloud spread over the map (> 10 m)", 60.0)
         last, driven, held = truth_in_map(truth.msg, m_in_w), 0.0, 0.0
         while True:
             sleep_sim(SAMPLE)
