@@ -103,6 +103,22 @@ def run_bounded(args, env, timeout):
         stop_process_tree(proc, grace=5.0)
 
 
+def wait_for_sim_time_param(session, timeout=60.0):
+    """Wait until the launch has set /use_sim_time true on its master, so that a rospy
+    node initialised afterwards in this process runs on the simulator's /clock."""
+    import rosgraph
+
+    master = rosgraph.Master("/roslaunch_session", master_uri=session.env["ROS_MASTER_URI"])
+
+    def set_true():
+        try:
+            return master.getParam("/use_sim_time") is True
+        except Exception:  # master not up yet, or the param not set yet
+            return False
+
+    wait_for(set_true, timeout, "/use_sim_time on the launch's master", session, poll=0.1)
+
+
 def wait_for(predicate, timeout, what, session=None, poll=0.05):
     """Wait until predicate() is true; RuntimeError naming `what` on timeout or launch death."""
     end = time.monotonic() + timeout
