@@ -120,10 +120,20 @@ def test_map_saver_and_autosaver_save_the_served_map(tmp_path):
         auto = subprocess.Popen(["rosrun", "my_summit_mapping", "map_autosaver", f"_path:={tmp_path / 'auto'}",
                                  "_interval:=100.0"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                 text=True, env=env, start_new_session=True)
-        time.sleep(4.0)   # subscribed and got the latched map, well before the first interval
-        assert not (tmp_path / "auto.yaml").exists()
+        # Wait (wall-clock bound, generous for a loaded machine) until it has the latched map.
+        seen, deadline = [], time.monotonic() + 90.0
+        while time.monotonic() < deadline:
+            line = auto.stdout.readline()
+            if not line:
+                break
+            seen.append(line)
+            if "first map received" in line:
+                break
+        assert any("first map received" in l for l in seen), "".join(seen)
+        assert not (tmp_path / "auto.yaml").exists()  # well before the first interval
         os.killpg(auto.pid, signal.SIGINT)
-        auto_out, _ = auto.communicate(timeout=20)
+        rest, _ = auto.communicate(timeout=60)
+        auto_out = "".join(seen) + rest
         assert "saved the map (at shutdown)" in auto_out, auto_out
     finally:
         os.killpg(server.pid, signal.SIGINT)
@@ -213,11 +223,27 @@ def test_slam_gmapping_survives_bad_scans(tmp_path):
                             env=env, start_new_session=True)
     slam = None
     try:
-        time.sleep(3.0)
+        import rosgraph
+        master = rosgraph.Master("/test_bad_scans", master_uri=env["ROS_MASTER_URI"])
+
+        def wait_master(condition, what, timeout=90.0):  # wall-clock bound, generous under load
+            deadline = time.monotonic() + timeout
+            while time.monotonic() < deadline:
+                try:
+                    if condition():
+                        return
+                except Exception:  # master not up yet
+                    pass
+                time.sleep(0.2)
+            pytest.fail(f"timed out waiting for {what}")
+
+        wait_master(lambda: master.getPid() > 0, "roscore")
         slam = subprocess.Popen(["rosrun", "my_summit_mapping", "slam_gmapping", "_base_frame:=base_footprint",
                                  "_map_update_interval:=0.5", "_particles:=5", "_xmin:=-5", "_ymin:=-5",
                                  "_xmax:=5", "_ymax:=5"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                 text=True, env=env, start_new_session=True)
+        wait_master(lambda: any(t == "/scan" for t, _ in master.getSystemState()[1]),
+                    "slam_gmapping to subscribe to /scan")
         _, code, out = run(["/usr/bin/python3", str(feeder)], env)
         assert "GOT MAP" in out, out[-3000:]
         assert slam.poll() is None, "slam_gmapping died"

@@ -15,6 +15,7 @@ class Latest:
 
     def __init__(self, topic, msg_type):
         self.msg, self.count = None, 0
+        self.stamps = []  # header stamps [s] of every message, for rates in simulated time
         self.lock = threading.Lock()
         self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=50)
 
@@ -22,6 +23,15 @@ class Latest:
         with self.lock:
             self.msg = msg
             self.count += 1
+            if hasattr(msg, "header"):
+                self.stamps.append(msg.header.stamp.to_sec())
+
+    def rate_between(self, t0, t1):
+        """Messages per second of simulated time stamped within [t0, t1) [s]: independent
+        of transport delays, unlike counting arrivals against this node's clock."""
+        with self.lock:
+            n = sum(1 for t in self.stamps if t0 <= t < t1)
+        return n / (t1 - t0)
 
     def wait(self, timeout_wall=30.0):
         """Block until a first message arrives; AssertionError on timeout."""
