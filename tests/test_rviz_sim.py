@@ -15,151 +15,31 @@ screenshot of rviz with a fixed frame that does not exist (nothing can be transf
 
 Run: source devel/setup.bash && /usr/bin/python3 -m pytest tests/test_rviz_sim.py
 """
-import os
-import select
-import shutil
-import signal
-import socket
 import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 cv2 = pytest.importorskip("cv2")
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from rviz_util import (BACKGROUND, SCREEN, kill_group, need, free_port,  # noqa: E402
+                       render_area, ros_env, screenshot, spawn, xvfb)  # noqa: F401
+
 pytestmark = pytest.mark.integration
 
 SETTLE_S = 8.0            # wall seconds between launch and screenshot
-SCREEN = (1280, 800)
-BACKGROUND = np.array([48, 48, 48])
 
 
 # ----------------------------------------------------------------------------- helpers
-def _need(*exes):
-    missing = [e for e in exes if shutil.which(e, path="/usr/bin:/bin") is None
-               and shutil.which(e) is None]
-    if missing:
-        pytest.skip("missing executables: %s" % ", ".join(missing))
-
-
-def _free_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _descendants(pid):
-    """PIDs of all processes below pid (from /proc), children first found first."""
-    children = {}
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open("/proc/%s/stat" % entry) as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-        except (OSError, IndexError, ValueError):
-            continue
-        children.setdefault(ppid, []).append(int(entry))
-    out, todo = [], [pid]
-    while todo:
-        for c in children.get(todo.pop(), []):
-            out.append(c)
-            todo.append(c)
-    return out
-
-
-def _kill_group(proc, grace=8.0):
-    """SIGINT the process group led by proc.pid (started with start_new_session), then
-    SIGKILL the group and every process that was below it (roslaunch starts its nodes in
-    sessions of their own, so the group alone would miss a node that hangs on shutdown).
-    Only these PIDs: never anything found by name."""
-    if proc is None:
-        return
-    pgid = proc.pid
-    below = _descendants(proc.pid) if proc.poll() is None else []
-    if proc.poll() is None:
-        try:
-            os.killpg(pgid, signal.SIGINT)
-            proc.wait(timeout=grace)
-        except (ProcessLookupError, subprocess.TimeoutExpired):
-            pass
-    try:
-        os.killpg(pgid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    for pid in below:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    try:
-        proc.wait(timeout=5)
-    except subprocess.TimeoutExpired:
-        pass
-
-
-@pytest.fixture
-def spawn(request):
-    """spawn(cmd, **popen_kw) -> Popen in its own process group, killed at teardown."""
-    procs = []
-
-    def _spawn(cmd, **kw):
-        p = subprocess.Popen(cmd, start_new_session=True, stdin=subprocess.DEVNULL, **kw)
-        procs.append(p)
-        return p
-
-    def _fin():
-        for p in reversed(procs):
-            _kill_group(p)
-    request.addfinalizer(_fin)
-    return _spawn
-
-
-@pytest.fixture(scope="module")
-def xvfb(request):
-    """A private X server; yields its DISPLAY string (':N'), N picked by Xvfb itself."""
-    _need("Xvfb", "import")
-    rfd, wfd = os.pipe()
-    proc = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(wfd), "-screen", "0", "%dx%dx24" % SCREEN,
-         "-nolisten", "tcp"],
-        pass_fds=(wfd,), start_new_session=True, stdin=subprocess.DEVNULL,
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(wfd)
-    request.addfinalizer(lambda: _kill_group(proc, grace=3.0))
-    ready, _, _ = select.select([rfd], [], [], 15.0)
-    number = os.read(rfd, 32).decode().strip() if ready else ""
-    os.close(rfd)
-    if not number.isdigit():
-        pytest.fail("Xvfb did not report a display number")
-    return ":" + number
-
-
-def _ros_env(display, port, log_dir):
-    env = dict(os.environ)
-    env["PATH"] = "/usr/bin:/bin:/usr/sbin:/sbin:" + env.get("PATH", "")
-    env["ROS_MASTER_URI"] = "http://localhost:%d" % port
-    env["ROS_HOSTNAME"] = "localhost"
-    env["ROS_LOG_DIR"] = str(log_dir)
-    env["DISPLAY"] = display
-    env["XDG_RUNTIME_DIR"] = str(log_dir)
-    return env
-
-
-def _screenshot(display, path):
-    subprocess.run(["import", "-display", display, "-window", "root", str(path)],
-                   check=True, timeout=20, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    assert img is not None, "screenshot %s unreadable" % path
-    return img[:, :, ::-1].astype(np.int16)  # RGB
-
-
 def run_sim_and_grab(spawn, display, tmp_path, name, extra_args=()):
     """sim.launch gui:=true, wait SETTLE_S, screenshot, stop the launch. -> RGB image."""
-    _need("roslaunch", "rviz")
-    port = _free_port()
-    env = _ros_env(display, port, tmp_path)
+    need("roslaunch", "rviz")
+    port = free_port()
+    env = ros_env(display, port, tmp_path)
     log = open(tmp_path / ("%s_launch.log" % name), "wb")
     launch = spawn(["roslaunch", "-p", str(port), "summit_xl_sim", "sim.launch",
                     "gui:=true", "speed:=1"] + list(extra_args),
@@ -169,43 +49,14 @@ def run_sim_and_grab(spawn, display, tmp_path, name, extra_args=()):
         while time.time() < deadline:
             assert launch.poll() is None, "roslaunch exited early, see %s" % log.name
             time.sleep(0.25)
-        img = _screenshot(display, tmp_path / ("%s.png" % name))
+        img = screenshot(display, tmp_path / ("%s.png" % name))
     finally:
-        _kill_group(launch)
+        kill_group(launch)
         log.close()
     return img
 
 
 # ------------------------------------------------------------------------ the pixel check
-def render_area(img):
-    """Bounding box (x0, y0, x1, y1) of rviz's render panel: the biggest block of rows
-    and columns made mostly of the background colour. None when there is none."""
-    bg = np.abs(img - BACKGROUND).max(axis=2) <= 4
-
-    def longest_run(mask, max_gap=8):
-        # grid lines cross the panel every metre: bridge gaps up to max_gap pixels
-        mask = mask.copy()
-        idx = np.nonzero(mask)[0]
-        for a, b in zip(idx[:-1], idx[1:]):
-            if 1 < b - a <= max_gap:
-                mask[a:b] = True
-        best, start = (0, 0), None
-        for i, v in enumerate(list(mask) + [False]):
-            if v and start is None:
-                start = i
-            elif not v and start is not None:
-                if i - start > best[1] - best[0]:
-                    best = (start, i)
-                start = None
-        return best
-
-    x0, x1 = longest_run(bg.mean(axis=0) > 0.3)
-    y0, y1 = longest_run(bg.mean(axis=1) > 0.3)
-    if x1 - x0 < 200 or y1 - y0 < 200:
-        return None
-    return x0, y0, x1, y1
-
-
 def analyse(img):
     """Pixel statistics of the render panel (all counts in pixels)."""
     box = render_area(img)
@@ -291,7 +142,6 @@ def test_rviz_shows_robot_tf_and_scan(spawn, xvfb, tmp_path):
 
 def test_check_fails_with_wrong_fixed_frame(spawn, xvfb, tmp_path):
     """Real negative: rviz with Fixed Frame `map` (nobody publishes it): no robot, no scan."""
-    from pathlib import Path
     import rospkg
     cfg = Path(rospkg.RosPack().get_path("summit_xl_sim")) / "rviz" / "sim.rviz"
     text = cfg.read_text()

@@ -1,0 +1,235 @@
+"""Shared helpers of the rviz screenshot tests (test_rviz_sim.py, test_rviz_steps.py).
+
+A private Xvfb (display number picked by Xvfb itself), a free master port per launch,
+processes started in their own sessions and killed by PID only (never by name), an
+ImageMagick screenshot of the root window, and the location of rviz's render panel in it.
+Import from a test module (pytest runs with --import-mode=importlib, so the test puts its
+own directory on sys.path first) and re-export the fixtures `spawn` and `xvfb`.
+"""
+import os
+import select
+import shutil
+import signal
+import socket
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+SCREEN = (1280, 800)
+BACKGROUND = np.array([48, 48, 48])   # rviz's default background colour (RGB)
+
+
+def need(*exes):
+    """Skip the test when an executable is missing."""
+    missing = [e for e in exes if shutil.which(e, path="/usr/bin:/bin") is None
+               and shutil.which(e) is None]
+    if missing:
+        pytest.skip("missing executables: %s" % ", ".join(missing))
+
+
+def free_port():
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def descendants(pid):
+    """PIDs of all processes below pid (from /proc)."""
+    children = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open("/proc/%s/stat" % entry) as f:
+                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue
+        children.setdefault(ppid, []).append(int(entry))
+    out, todo = [], [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            out.append(c)
+            todo.append(c)
+    return out
+
+
+def kill_group(proc, grace=8.0):
+    """SIGINT the process group led by proc.pid (started with start_new_session), then
+    SIGKILL the group and every process that was below it (roslaunch starts its nodes in
+    sessions of their own, so the group alone would miss a node that hangs on shutdown).
+    Only these PIDs: never anything found by name."""
+    if proc is None:
+        return
+    pgid = proc.pid
+    below = descendants(proc.pid) if proc.poll() is None else []
+    if proc.poll() is None:
+        try:
+            os.killpg(pgid, signal.SIGINT)
+            proc.wait(timeout=grace)
+        except (ProcessLookupError, subprocess.TimeoutExpired):
+            pass
+    try:
+        os.killpg(pgid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    for pid in below:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    try:
+        proc.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        pass
+
+
+@pytest.fixture
+def spawn(request):
+    """spawn(cmd, **popen_kw) -> Popen in its own process group, killed at teardown."""
+    procs = []
+
+    def _spawn(cmd, **kw):
+        p = subprocess.Popen(cmd, start_new_session=True, stdin=subprocess.DEVNULL, **kw)
+        procs.append(p)
+        return p
+
+    def _fin():
+        for p in reversed(procs):
+            kill_group(p)
+    request.addfinalizer(_fin)
+    return _spawn
+
+
+def start_xvfb(size=SCREEN):
+    """-> (Popen, ':N'): a private X server, N picked by Xvfb itself (-displayfd)."""
+    rfd, wfd = os.pipe()
+    proc = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(wfd), "-screen", "0", "%dx%dx24" % size,
+         "-nolisten", "tcp"],
+        pass_fds=(wfd,), start_new_session=True, stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(wfd)
+    # read up to the newline before closing: Xvfb writes the number and the "\n" in two
+    # writes, and dies ("Cannot write display number") if the pipe is closed in between
+    data, deadline = b"", time.time() + 15.0
+    while not data.endswith(b"\n"):
+        ready, _, _ = select.select([rfd], [], [], max(0.0, deadline - time.time()))
+        chunk = os.read(rfd, 32) if ready else b""
+        if not chunk:
+            break
+        data += chunk
+    os.close(rfd)
+    number = data.decode().strip()
+    if not number.isdigit():
+        kill_group(proc, grace=3.0)
+        raise RuntimeError("Xvfb did not report a display number")
+    return proc, ":" + number
+
+
+@pytest.fixture(scope="module")
+def xvfb(request):
+    """A private X server for the module; yields its DISPLAY string (':N')."""
+    need("Xvfb", "import")
+    try:
+        proc, display = start_xvfb()
+    except RuntimeError as e:
+        pytest.fail(str(e))
+    request.addfinalizer(lambda: kill_group(proc, grace=3.0))
+    return display
+
+
+def ros_env(display, port, log_dir):
+    """os.environ for a ROS process on its own master (port) and X display."""
+    env = dict(os.environ)
+    env["PATH"] = "/usr/bin:/bin:/usr/sbin:/sbin:" + env.get("PATH", "")
+    env["ROS_MASTER_URI"] = "http://localhost:%d" % port
+    env["ROS_HOSTNAME"] = "localhost"
+    env["ROS_LOG_DIR"] = str(log_dir)
+    env["DISPLAY"] = display
+    env["XDG_RUNTIME_DIR"] = str(log_dir)
+    return env
+
+
+def wait_alive(procs, seconds, what="process", logs=None):
+    """Sleep `seconds` of wall time, failing as soon as one of procs has exited."""
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        for i, p in enumerate(procs):
+            assert p.poll() is None, "%s exited early (rc %s)%s" % (
+                what, p.returncode, ", see %s" % logs[i] if logs else "")
+        time.sleep(0.25)
+
+
+def screenshot(display, path):
+    """Grab the whole X screen into path; -> the picture as an RGB int16 array."""
+    import cv2
+    subprocess.run(["import", "-display", display, "-window", "root", str(path)],
+                   check=True, timeout=20, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    assert img is not None, "screenshot %s unreadable" % path
+    return img[:, :, ::-1].astype(np.int16)  # RGB
+
+
+def background_mask(img, background=BACKGROUND, tol=4):
+    return np.abs(img - background).max(axis=2) <= tol
+
+
+def colour_mask(img, colours, tol=4):
+    """Pixels within tol (per channel) of any of the RGB colours."""
+    mask = np.zeros(img.shape[:2], bool)
+    for c in colours:
+        mask |= np.abs(img - np.asarray(c)).max(axis=2) <= tol
+    return mask
+
+
+def render_area(img, background=BACKGROUND, min_frac=0.3, min_size=200, mask=None):
+    """Bounding box (x0, y0, x1, y1) of rviz's render panel: the biggest block of rows
+    and columns where at least min_frac of the pixels have the background colour (or are
+    set in `mask`, a boolean image of the colours the panel is made of). None when there
+    is none."""
+    bg = background_mask(img, background) if mask is None else mask
+
+    def longest_run(mask, max_gap=8):
+        # grid lines cross the panel every metre: bridge gaps up to max_gap pixels
+        mask = mask.copy()
+        idx = np.nonzero(mask)[0]
+        for a, b in zip(idx[:-1], idx[1:]):
+            if 1 < b - a <= max_gap:
+                mask[a:b] = True
+        best, start = (0, 0), None
+        for i, v in enumerate(list(mask) + [False]):
+            if v and start is None:
+                start = i
+            elif not v and start is not None:
+                if i - start > best[1] - best[0]:
+                    best = (start, i)
+                start = None
+        return best
+
+    x0, x1 = longest_run(bg.mean(axis=0) > min_frac)
+    y0, y1 = longest_run(bg.mean(axis=1) > min_frac)
+    if x1 - x0 < min_size or y1 - y0 < min_size:
+        return None
+    return x0, y0, x1, y1
+
+
+def wait_param(port, name, timeout=20.0, procs=()):
+    """Wait until the master on localhost:port is up and has parameter `name` (e.g. the
+    robot_description a launch file sets before it starts its nodes). -> True / False.
+    Fails at once if one of procs has exited."""
+    import xmlrpc.client
+    master = xmlrpc.client.ServerProxy("http://localhost:%d" % port)
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        for p in procs:
+            assert p.poll() is None, "process %s exited early (rc %s)" % (p.args, p.returncode)
+        try:
+            code, _, has = master.hasParam("/rviz_test", name)
+            if code == 1 and has:
+                return True
+        except (OSError, xmlrpc.client.Error):
+            pass
+        time.sleep(0.25)
+    return False
