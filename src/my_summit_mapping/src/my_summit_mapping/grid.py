@@ -4,34 +4,48 @@ Reference: Grisetti, Stachniss, Burgard 2007, "Improved Techniques for Grid Mapp
 Rao-Blackwellized Particle Filters", IEEE T-RO 23(1); GMapping's HierarchicalArray2D
 (grid/harray2d.h: patches allocated on demand, shared between particles through
 reference-counted pointers) and PointAccumulator (grid/map.h: a cell's occupancy is
-hits / visits, the "frequency" model). Ray tracing as in ScanMatcher::registerScan: every
-cell a beam crosses is visited, the end cell of a beam that returned is also a hit.
+hits / visits, the "frequency" model). Ray tracing as in ScanMatcher::registerScan:
+every beam is traced on its own with a Bresenham line (GridLineTraversal) from the
+laser's cell to the end cell; each cell before the end gets one visit, the end cell of a
+beam that returned gets one hit and one visit.
+
+Counting per beam matters. With every cell counted at most once per scan (as this module
+did before), a free cell just in front of a wall that one noisy beam ends in scores
+1 hit / 1 visit for that scan although dozens of beams crossed it; near a wall face on a
+cell boundary (every wall of the simulator's grid world) laser noise does that all the
+time, the cells in front of the walls turned "occupied" (> FULLNESS_THRESHOLD) and the
+scan matcher's occupied bands grew by a cell towards where the robot happened to look
+from. Counted per beam, such a cell keeps a low frequency (1 / 30) and stays free.
 
 Memory: the world is cut into PATCH_CELLS x PATCH_CELLS patches, allocated only where a
-beam passed. A patch is two uint8 arrays (hits, visits) = 8 KiB at 64 x 64. `copy()`
-shares every patch; a patch is duplicated the first time one of the sharers writes to it
-(copy-on-write), so 100 particles whose lineages merged cost little more than one map.
+beam passed. A patch is one float32 array (2, P, P): hits, visits = 32 KiB at 64 x 64
+(float32: a cell near the laser is crossed by up to every beam of every scan).
+`copy()` shares every patch; a patch is duplicated the first time one of the sharers
+writes to it (copy-on-write), so 100 particles whose lineages merged cost little more
+than one map.
 
-Ray tracing is done per scan with OpenCV's C line rasterizer (cv2.polylines draws all
-beams at once into a scan-sized window), then the window is added into the patches it
-touches. A cell counts at most one visit and one hit per scan. `trace_scan_reference` is
-the slow, obvious per-beam version kept as the test oracle.
+Ray tracing is vectorized over all beams of a scan (all Bresenham cells at once, counted
+with np.bincount into a scan-sized window), then the window is added into the patches it
+touches. `trace_scan_reference` is the slow, obvious per-beam version kept as the test
+oracle.
 
 Cell (i, j) covers world x in [i*res, (i+1)*res), y in [j*res, (j+1)*res): the grid's
 origin is the world origin, indices may be negative. Arrays are indexed [row=y, col=x].
 """
 import math
+from fractions import Fraction
 from typing import Dict, Optional, Set, Tuple
 
-import cv2
 import numpy as np
 
 PATCH_SHIFT = 6                  # log2 of the patch side [cells]
 PATCH_CELLS = 1 << PATCH_SHIFT   # patch side, 64 cells = 3.2 m at 0.05 m [cells]
-COUNT_LIMIT = 255                # uint8 counters; halved (keeps hits/visits) before overflow [-]
-LINE_SHIFT = 8                   # fixed-point fractional bits for sub-cell accurate rays [bits]
+HITS, VISITS = range(2)          # layers of a patch / a traced window
+LAYERS = 2                       # hits, visits [-]
+COUNT_LIMIT = 1 << 22            # float32 counts stay exact; both layers halved (keeps the
+                                 # frequency) before a cell's visits pass this [-]
 FULLNESS_THRESHOLD = 0.1         # gmapping's m_fullnessThreshold: occupied for matching if hits/visits > this [-]
-PATCH_BYTES = 2 * PATCH_CELLS * PATCH_CELLS  # hits + visits, uint8 each [bytes]
+PATCH_BYTES = LAYERS * 4 * PATCH_CELLS * PATCH_CELLS  # float32 layers [bytes]
 UNKNOWN = -1                     # OccupancyGrid value of a never-seen cell
 OCCUPIED = 100                   # OccupancyGrid value of an occupied cell
 FREE = 0                         # OccupancyGrid value of a free cell
@@ -49,7 +63,7 @@ class PatchGrid:
         if not resolution > 0.0:
             raise ValueError(f"grid resolution must be > 0 m, got {resolution!r}")
         self.resolution = float(resolution)
-        self._patches: Dict[Key, np.ndarray] = {}  # (py, px) -> (2, P, P) uint8 [hits, visits]
+        self._patches: Dict[Key, np.ndarray] = {}  # (py, px) -> (LAYERS, P, P) float32
         self._owned: Set[Key] = set()              # patches only this grid references
 
     # ----------------------------------------------------------------- sharing
@@ -81,7 +95,7 @@ class PatchGrid:
     def _writable_patch(self, key: Key) -> np.ndarray:
         patch = self._patches.get(key)
         if patch is None:
-            patch = np.zeros((2, PATCH_CELLS, PATCH_CELLS), np.uint8)
+            patch = np.zeros((LAYERS, PATCH_CELLS, PATCH_CELLS), np.float32)
         elif key not in self._owned:
             patch = patch.copy()
         else:
@@ -105,37 +119,38 @@ class PatchGrid:
 
     # ---------------------------------------------------------------- windows
     def read_window(self, ix0: int, iy0: int, width: int, height: int) -> Tuple[np.ndarray, np.ndarray]:
-        """(hits, visits), each (height, width) uint8, of the cells from (ix0, iy0).
+        """(hits, visits), each (height, width) float32, of the cells from (ix0, iy0).
 
         Unallocated cells read as 0 visits (unknown). Any window is allowed; it is fastest
         when aligned to patches.
         """
-        hits = np.zeros((height, width), np.uint8)
-        visits = np.zeros((height, width), np.uint8)
+        cells = self.read_layers(ix0, iy0, width, height)
+        return cells[HITS], cells[VISITS]
+
+    def read_layers(self, ix0: int, iy0: int, width: int, height: int) -> np.ndarray:
+        """Both layers (LAYERS, height, width) float32 (hits, visits) of the cells from (ix0, iy0)."""
+        out = np.zeros((LAYERS, height, width), np.float32)
         for key, (wy, wx, py, px, h, w) in _patch_slices(ix0, iy0, width, height):
             patch = self._patches.get(key)
             if patch is not None:
-                hits[wy:wy + h, wx:wx + w] = patch[0, py:py + h, px:px + w]
-                visits[wy:wy + h, wx:wx + w] = patch[1, py:py + h, px:px + w]
-        return hits, visits
+                out[:, wy:wy + h, wx:wx + w] = patch[:, py:py + h, px:px + w]
+        return out
 
-    def add_window(self, ix0: int, iy0: int, hits: np.ndarray, visits: np.ndarray) -> None:
-        """Add per-cell hit and visit counts (uint8 windows) at cell (ix0, iy0).
+    def add_window(self, ix0: int, iy0: int, counts: np.ndarray) -> None:
+        """Add per-cell layers (LAYERS, h, w) (as trace_scan makes them) at cell (ix0, iy0).
 
-        Only patches where `visits` is non-zero are touched (allocated or copied).
+        Only patches where the visits are non-zero are touched (allocated or copied).
         """
-        height, width = visits.shape
+        _, height, width = counts.shape
         for key, (wy, wx, py, px, h, w) in _patch_slices(ix0, iy0, width, height):
-            vwin = visits[wy:wy + h, wx:wx + w]
-            if not vwin.any():
+            win = counts[:, wy:wy + h, wx:wx + w]
+            if not win[VISITS].any():
                 continue
             patch = self._writable_patch(key)
-            hwin = hits[wy:wy + h, wx:wx + w]
-            if int(patch[1].max()) + int(vwin.max()) > COUNT_LIMIT:
+            if float(patch[VISITS].max()) + float(win[VISITS].max()) > COUNT_LIMIT:
                 # Halve both counters: the frequency hits/visits is what matters.
-                np.right_shift(patch, 1, out=patch)
-            patch[0, py:py + h, px:px + w] += hwin
-            patch[1, py:py + h, px:px + w] += vwin
+                patch *= 0.5
+            patch[:, py:py + h, px:px + w] += win
 
     # ------------------------------------------------------------ ray tracing
     def integrate_scan(self, laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarray,
@@ -147,10 +162,10 @@ class PatchGrid:
         (NaN, inf, >= max_range) or longer than max_urange only frees cells up to
         max_urange; beams with range <= 0 are ignored.
         """
-        ix0, iy0, hits, visits = trace_scan(laser_pose, ranges, angles, max_urange, max_range,
-                                            self.resolution)
-        if visits.size:
-            self.add_window(ix0, iy0, hits, visits)
+        ix0, iy0, counts = trace_scan(laser_pose, ranges, angles, max_urange, max_range,
+                                      self.resolution)
+        if counts.size:
+            self.add_window(ix0, iy0, counts)
 
     # ------------------------------------------------------------------ output
     def occupancy_grid(self, occ_thresh: float,
@@ -170,8 +185,8 @@ class PatchGrid:
             patch = self._patches.get(key)
             if patch is None:
                 continue
-            data[wy:wy + h, wx:wx + w] = occupancy_values(patch[0, py:py + h, px:px + w],
-                                                          patch[1, py:py + h, px:px + w], occ_thresh)
+            data[wy:wy + h, wx:wx + w] = occupancy_values(patch[HITS, py:py + h, px:px + w],
+                                                          patch[VISITS, py:py + h, px:px + w], occ_thresh)
         return (data.reshape(-1), width, height, self.resolution,
                 ix0 * self.resolution, iy0 * self.resolution)
 
@@ -195,7 +210,7 @@ class PatchGrid:
         """Map entropy [nat]: sum over seen cells of the binary entropy of hits/visits."""
         total = 0.0
         for patch in self._patches.values():
-            total += float(cell_entropy(patch[0], patch[1]).sum())
+            total += float(cell_entropy(patch[HITS], patch[VISITS]).sum())
         return total
 
     def nbytes(self) -> int:
@@ -262,49 +277,77 @@ def beam_endpoints(laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarra
     return ends, is_hit[used]
 
 
-def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
-    """Rasterize a scan into (ix0, iy0, hits, visits) uint8 windows, patch-aligned.
+def bresenham_counts(start: np.ndarray, stop: np.ndarray) -> np.ndarray:
+    """Number of cells (B,) on the Bresenham lines from cells start (B, 2) to stop (B, 2),
+    both ends included: max(|dx|, |dy|) + 1."""
+    return np.abs(stop - start).max(axis=1) + 1
 
-    Uses cv2.polylines with LINE_SHIFT fixed-point coordinates (8-connected lines, C
-    speed); each crossed cell gets one visit, each returned beam's end cell one hit.
+
+def bresenham_cells(start: np.ndarray, stop: np.ndarray):
+    """All cells of the Bresenham lines (GridLineTraversal) from integer cells start (B, 2)
+    to stop (B, 2), vectorized: (cells (M, 2) int64 in line order, beam index (M,)).
+
+    Along the major axis every cell is taken once; the minor coordinate of step k of n is
+    round(k * d / n) (halves rounded up), computed in integers so it is exact.
+    """
+    d = stop - start
+    n = np.abs(d).max(axis=1)                     # steps per line
+    counts = n + 1
+    beam = np.repeat(np.arange(len(start)), counts)
+    first = np.cumsum(counts) - counts
+    k = np.arange(int(counts.sum())) - np.repeat(first, counts)   # step along each line
+    nn = np.maximum(n, 1)[beam]
+    cells = start[beam] + (2 * k[:, None] * d[beam] + nn[:, None]) // (2 * nn[:, None])
+    return cells, beam
+
+
+def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
+    """Rasterize a scan into (ix0, iy0, counts (LAYERS, h, w) float32), patch-aligned.
+
+    Per beam (gmapping's registerScan): the Bresenham line from the laser's cell to the end
+    cell; every cell but the last gets a visit; the end cell of a returned beam gets a hit
+    and a visit. A beam cut at max_urange leaves its last cell untouched, as in gmapping.
     """
     laser_pose = np.asarray(laser_pose, float)
     ends, is_hit = beam_endpoints(laser_pose, ranges, angles, max_urange, max_range)
     if len(ends) == 0:
-        return 0, 0, np.zeros((0, 0), np.uint8), np.zeros((0, 0), np.uint8)
-    origin = laser_pose[:2] / resolution                      # [cells, continuous]
-    ends_c = ends / resolution
-    lo = np.floor(np.minimum(ends_c.min(axis=0), origin)).astype(np.int64) - 1
-    hi = np.floor(np.maximum(ends_c.max(axis=0), origin)).astype(np.int64) + 2
+        return 0, 0, np.zeros((LAYERS, 0, 0), np.float32)
+    start_cell = np.floor(laser_pose[:2] / resolution).astype(np.int64)
+    end_cells = np.floor(ends / resolution).astype(np.int64)
+    lo = np.minimum(end_cells.min(axis=0), start_cell)
+    hi = np.maximum(end_cells.max(axis=0), start_cell) + 1
     ix0 = int(lo[0]) >> PATCH_SHIFT << PATCH_SHIFT
     iy0 = int(lo[1]) >> PATCH_SHIFT << PATCH_SHIFT
     width = ((int(hi[0]) - ix0 + PATCH_CELLS - 1) >> PATCH_SHIFT) << PATCH_SHIFT
     height = ((int(hi[1]) - iy0 + PATCH_CELLS - 1) >> PATCH_SHIFT) << PATCH_SHIFT
-    visits = np.zeros((height, width), np.uint8)
-    hits = np.zeros((height, width), np.uint8)
-    # OpenCV pixel (c, r) has its centre at integer coordinates: cell c spans [c-0.5, c+0.5).
-    scale = float(1 << LINE_SHIFT)
-    start = np.round((origin - (ix0, iy0) - 0.5) * scale)
-    stop = np.round((ends_c - (ix0, iy0) - 0.5) * scale)
-    segments = np.empty((len(ends), 2, 2), np.int32)
-    segments[:, 0, :] = start
-    segments[:, 1, :] = stop
-    cv2.polylines(visits, segments, False, 1, 1, cv2.LINE_8, LINE_SHIFT)
-    hit_cells = np.floor(ends_c[is_hit]).astype(np.int64) - (ix0, iy0)
-    hits[hit_cells[:, 1], hit_cells[:, 0]] = 1
-    visits[hit_cells[:, 1], hit_cells[:, 0]] = 1
-    return ix0, iy0, hits, visits
+    cells, _ = bresenham_cells(np.broadcast_to(start_cell, end_cells.shape), end_cells)
+    last = np.cumsum(bresenham_counts(np.broadcast_to(start_cell, end_cells.shape), end_cells)) - 1
+    passing = np.ones(len(cells), bool)
+    passing[last] = False                        # the end cells: hit (returned) or untouched
+    flat = (cells[:, 1] - iy0) * width + (cells[:, 0] - ix0)
+    size = width * height
+    counts = np.zeros((LAYERS, height * width), np.float32)
+    counts[VISITS] = np.bincount(flat[passing], minlength=size)
+    counts[HITS] = np.bincount(flat[last[is_hit]], minlength=size)
+    counts[VISITS] += counts[HITS]
+    return ix0, iy0, counts.reshape(LAYERS, height, width)
 
 
 def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, resolution):
     """Slow, obvious per-beam ray tracer (test oracle for `trace_scan`).
 
-    Walks each beam in small steps and collects the cells it passes. Returns
-    (free_cells, hit_cells): sets of (ix, iy) crossed by some beam / ending a returned beam.
+    For each beam, a plain Bresenham walk (one cell per step of the major axis, the minor
+    coordinate rounded) from the laser's cell to the end cell. Returns a dict
+    {(ix, iy): [hits, visits]} as trace_scan's layers.
     """
     laser_pose = np.asarray(laser_pose, float)
-    free, hit = set(), set()
-    step = resolution / 20.0  # fine enough to not skip a corner-cut cell [m]
+    out = {}
+
+    def cell(key):
+        return out.setdefault(key, [0.0, 0.0])
+
+    x0 = math.floor(laser_pose[0] / resolution)
+    y0 = math.floor(laser_pose[1] / resolution)
     for r, a in zip(ranges, angles):
         r = float(r)
         if r <= 0.0:
@@ -312,12 +355,16 @@ def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, reso
         returned = math.isfinite(r) and r < max_range and r < max_urange
         length = r if returned else max_urange
         th = laser_pose[2] + a
-        n = int(length / step)
-        for k in range(n + 1):
-            d = k * step
-            free.add((math.floor((laser_pose[0] + d * math.cos(th)) / resolution),
-                      math.floor((laser_pose[1] + d * math.sin(th)) / resolution)))
+        ex = laser_pose[0] + length * math.cos(th)
+        ey = laser_pose[1] + length * math.sin(th)
+        x1, y1 = math.floor(ex / resolution), math.floor(ey / resolution)
+        n = max(abs(x1 - x0), abs(y1 - y0))
+        for k in range(n):
+            fx = Fraction(k * (x1 - x0), n) + Fraction(1, 2)
+            fy = Fraction(k * (y1 - y0), n) + Fraction(1, 2)
+            cell((x0 + math.floor(fx), y0 + math.floor(fy)))[VISITS] += 1
         if returned:
-            hit.add((math.floor((laser_pose[0] + r * math.cos(th)) / resolution),
-                     math.floor((laser_pose[1] + r * math.sin(th)) / resolution)))
-    return free, hit
+            c = cell((x1, y1))
+            c[HITS] += 1
+            c[VISITS] += 1
+    return out
