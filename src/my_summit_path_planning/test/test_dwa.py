@@ -101,9 +101,11 @@ def test_goal_latch_and_rotate(footprint):
     assert abs((yaw - math.pi / 2 + math.pi) % (2 * math.pi) - math.pi) <= 0.15
     modes = [r.mode for r in results]
     assert "rotate" in modes
-    # Once rotating, it never goes back to driving (no wiggling at the goal).
+    # Once rotating, it never goes back to driving (no wiggling at the goal); within the
+    # yaw tolerance it brakes ("stop") and the goal counts only once it stands still.
     first = modes.index("rotate")
-    assert all(mo in ("rotate", "goal") for mo in modes[first:])
+    assert all(mo in ("rotate", "stop", "goal") for mo in modes[first:])
+    assert modes[first:].index("goal") > modes[first:].index("stop")
 
 
 def test_escape_from_inscribed_zone(footprint):

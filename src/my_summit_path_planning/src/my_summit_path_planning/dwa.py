@@ -550,10 +550,16 @@ class DWAPlanner:
     def _stop_and_rotate(self, pose, velocity, costmap):
         cfg = self.config
         err = wrap_angle(self.goal_yaw - pose[2])
-        if abs(err) <= cfg.yaw_goal_tolerance:
-            self.goal_reached = True
-            return DWAResult(goal_reached=True, mode="goal")
         dt = cfg.sim_period
+        if abs(err) <= cfg.yaw_goal_tolerance:
+            # base_local_planner: the goal counts only once the robot has stopped there;
+            # declaring it while still turning lets the heading coast past the tolerance.
+            if self._stopped(velocity):
+                self.goal_reached = True
+                return DWAResult(goal_reached=True, mode="goal")
+            brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
+            return DWAResult(cmd=(brake(velocity[0], cfg.acc_lim_x), brake(velocity[1], cfg.acc_lim_y),
+                                  brake(velocity[2], cfg.acc_lim_theta)), mode="stop")
         if not self.rotating_to_goal and not self._stopped(velocity):
             # base_local_planner's stopWithAccLimits: brake as hard as allowed.
             brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
