@@ -16,15 +16,27 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 from roslaunch_session import run_bounded  # noqa: E402
 TIMEOUT = 600  # [s] wall time for one rostest run
 TEST_FILES = sorted(glob.glob(os.path.join(WS, "src", "*", "test", "*.test")))
+# Known to fail some runs, tracked in an open issue: still run and reported (xfail /
+# xpass in the summary), but not allowed to fail the whole suite. Keep this list short.
+KNOWN_FLAKY = {
+    # issue 5: DWA sometimes finds no valid command beside the dropped box and move_base
+    # aborts after its recoveries (about 1 run in 4 here).
+    "my_summit_path_planning/move_base_box.test",
+}
 
 
 def package_of(path):
     return os.path.basename(os.path.dirname(os.path.dirname(path)))
 
 
+def case_id(path):
+    return f"{package_of(path)}/{os.path.basename(path)}"
+
+
 @pytest.mark.integration
-@pytest.mark.parametrize("test_file", TEST_FILES,
-                         ids=[f"{package_of(p)}/{os.path.basename(p)}" for p in TEST_FILES])
+@pytest.mark.parametrize("test_file", [
+    pytest.param(p, marks=pytest.mark.xfail(reason="known flaky, see KNOWN_FLAKY", strict=False))
+    if case_id(p) in KNOWN_FLAKY else p for p in TEST_FILES], ids=[case_id(p) for p in TEST_FILES])
 def test_rostest(test_file, tmp_path):
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path))
     rc, out = run_bounded(["rostest", package_of(test_file), os.path.basename(test_file)], env, TIMEOUT)

@@ -128,3 +128,17 @@ def test_oscillation_flags():
     assert f.forbidden(s).tolist() == [True, False]
     f.update((0, 0, 0.5), (0.0, 0.0, -0.5), 0.1)   # turned > reset angle: flags cleared
     assert not f.forbidden(s).any()
+
+
+def test_latch_released_after_coasting_past_the_goal(footprint):
+    """Latched within tolerance at speed, braked 0.4 m past the goal: it must not turn on
+    the spot and report the goal; it drives back instead."""
+    m = local_costmap(footprint, [])
+    planner = DWAPlanner(DWAConfig(**CFG), footprint)
+    plan = np.column_stack([np.linspace(0.0, 1.0, 21), np.zeros(21)])
+    planner.set_plan(plan, 0.0)
+    r = planner.compute_velocity((0.95, 0.0, 0.0), (0.8, 0.0, 0.0), m)   # inside: latches, brakes
+    assert planner.xy_latched and r.mode == "stop"
+    r = planner.compute_velocity((1.4, 0.0, 0.0), (0.0, 0.0, 0.0), m)    # coasted 0.4 m past
+    assert not planner.xy_latched and not r.goal_reached
+    assert r.mode not in ("rotate", "goal")

@@ -59,6 +59,11 @@ ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the go
 ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated in escape mode
 
 
+# A latched xy goal is let go when the robot ends up farther than this many
+# xy_goal_tolerance from it (it latched while passing at speed and coasted on) [-].
+UNLATCH_FACTOR = 2.0
+
+
 @dataclass
 class DWAConfig:
     """dwa_local_planner's ROS parameters (DWAPlannerROS namespace), Noetic names."""
@@ -414,6 +419,11 @@ class DWAPlanner:
         dist_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
         if self.goal_reached:
             return DWAResult(goal_reached=True, mode="goal")
+        if self.xy_latched and dist_goal > UNLATCH_FACTOR * cfg.xy_goal_tolerance:
+            # Latched while passing the goal at speed, then braked beyond it: drive back
+            # rather than turn on the spot and report a goal it is not at.
+            self.xy_latched = False
+            self.rotating_to_goal = False
         if dist_goal <= cfg.xy_goal_tolerance or (cfg.latch_xy_goal_tolerance and self.xy_latched):
             if cfg.latch_xy_goal_tolerance:
                 self.xy_latched = True
