@@ -22,6 +22,9 @@ KNOWN_FLAKY = {
     # issue 5: DWA sometimes finds no valid command beside the dropped box and move_base
     # aborts after its recoveries (about 1 run in 4 here).
     "my_summit_path_planning/move_base_box.test",
+    # issue 5 again: its last part (the command-line client driving back to 0 0 0) has
+    # stalled beside a hall pillar (DWA finds no valid command), about 1 run in 5.
+    "my_summit_navigation/get_coordinates_bad_input.test",
 }
 
 
