@@ -22,7 +22,8 @@ import time
 import actionlib
 import rospkg
 import rospy
-from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from my_summit_navigation.goals import move_base_goal
+from move_base_msgs.msg import MoveBaseAction
 
 from my_summit_navigation import spot_goals as sg
 
@@ -75,13 +76,7 @@ def wait_clock(timeout):
 
 
 def make_goal(spot, frame_id):
-    g = MoveBaseGoal()
-    g.target_pose.header.frame_id = frame_id
-    g.target_pose.header.stamp = rospy.Time.now()
-    p, o = g.target_pose.pose.position, g.target_pose.pose.orientation
-    p.x, p.y, p.z = spot.x, spot.y, spot.z
-    o.x, o.y, o.z, o.w = spot.qx, spot.qy, spot.qz, spot.qw
-    return g
+    return move_base_goal(spot, frame_id, rospy.Time.now())
 
 
 def main(argv):
