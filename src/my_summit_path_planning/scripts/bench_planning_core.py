@@ -113,7 +113,9 @@ def bench_dwa_cycle(params, n=200, seed=0):
             "p90_ms": 1000 * float(np.percentile(times, 90))}
 
 
-def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False):
+def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, trace=False):
+    """only: run numbers (1-based) to simulate, the others are drawn but skipped (to
+    replay a failure); trace: print the controller's state every simulated second."""
     from summit_xl_sim.sim import Simulation
     from summit_xl_sim.world import World, WorldError
     world = World.from_yaml(world_yaml)
@@ -146,6 +148,9 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False):
                 break
         first = planner.make_plan(cm, (sx, sy), (gx, gy))
         if not first.ok:   # unreachable pair (closed room): draw another, not a failure
+            continue
+        if only and len(runs) + 1 not in only:
+            runs.append(None)
             continue
         loc = build_costmap(params.local_costmap, "local_costmap")
         g_obs = g.layer("obstacle_layer")
@@ -189,6 +194,10 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False):
                         dwa.set_plan(r.path, gyaw)
             else:
                 stuck = 0
+            if trace and cycle % int(round(1.0 / period)) == 0:
+                print(f"    t={t:5.1f} pose=({pose[0]:.2f}, {pose[1]:.2f}, {pose[2]:.2f}) mode={res.mode} "
+                      f"ok={res.ok} cmd=({res.cmd[0]:.2f}, {res.cmd[2]:.2f}) valid={res.n_valid}/{res.n_samples} "
+                      f"{res.reason}", flush=True)
             sim.command("robot", *res.cmd)
             for _ in range(sub):
                 sim.step(SIM_DT)
@@ -205,6 +214,7 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False):
         if verbose:
             print(f"  run {len(runs):3d}: reached={ok} t={t:5.1f}s ratio={run['ratio']:.2f} "
                   f"coll={st.collisions} err={err:.2f}m plan={first.length:.1f}m", flush=True)
+    runs = [r for r in runs if r is not None]
     reached = [r for r in runs if r["reached"]]
     return {"world": world_yaml, "runs": len(runs), "reached_share": len(reached) / max(1, len(runs)),
             "collisions": int(sum(r["collisions"] for r in runs)),
@@ -220,24 +230,28 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("-v", "--verbose", action="store_true")
+    ap.add_argument("--only", type=int, nargs="*", help="simulate only these closed-loop run numbers")
+    ap.add_argument("--trace", action="store_true", help="print the controller state every second")
+    ap.add_argument("--skip-navfn", action="store_true", help="skip the NavFn and DWA-cycle benchmarks")
     args = ap.parse_args(argv)
     params = load_move_base_params(CONFIG)
     out = {}
-    out["navfn_willow"] = bench_navfn(params, args.navfn_pairs, args.seed)
-    n = out["navfn_willow"]
-    print(f"NavFn willow-full-0.05: median {n['median_ms']:.0f} ms (max {n['max_ms']:.0f}) over "
-          f"{n['pairs']} pairs; path / grid geodesic: median {n['length_ratio_median']:.3f} "
-          f"(min {n['length_ratio_min']:.3f}, max {n['length_ratio_max']:.3f}); "
-          f"median path {n['median_path_m']:.1f} m vs geodesic {n['median_geodesic_m']:.1f} m", flush=True)
-    out["dwa_cycle"] = bench_dwa_cycle(params)
-    d = out["dwa_cycle"]
-    print(f"DWA cycle: median {d['median_ms']:.2f} ms, p90 {d['p90_ms']:.2f} ms, {d['samples']} samples", flush=True)
+    if not args.skip_navfn:
+        out["navfn_willow"] = bench_navfn(params, args.navfn_pairs, args.seed)
+        n = out["navfn_willow"]
+        print(f"NavFn willow-full-0.05: median {n['median_ms']:.0f} ms (max {n['max_ms']:.0f}) over "
+              f"{n['pairs']} pairs; path / grid geodesic: median {n['length_ratio_median']:.3f} "
+              f"(min {n['length_ratio_min']:.3f}, max {n['length_ratio_max']:.3f}); "
+              f"median path {n['median_path_m']:.1f} m vs geodesic {n['median_geodesic_m']:.1f} m", flush=True)
+        out["dwa_cycle"] = bench_dwa_cycle(params)
+        d = out["dwa_cycle"]
+        print(f"DWA cycle: median {d['median_ms']:.2f} ms, p90 {d['p90_ms']:.2f} ms, {d['samples']} samples", flush=True)
     for key, path, n_runs in (("closed_loop_builtin", BUILTIN, args.runs),
                               ("closed_loop_willow", WILLOW, args.willow_runs)):
         if n_runs <= 0:
             continue
         t0 = time.time()
-        c = closed_loop(params, path, n_runs, args.seed, args.verbose)
+        c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace)
         c["wall_s"] = time.time() - t0
         out[key] = c
         print(f"closed loop {os.path.basename(path)}: {c['reached_share'] * 100:.0f}% of {c['runs']} reached, "

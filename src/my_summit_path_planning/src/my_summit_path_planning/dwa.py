@@ -35,7 +35,9 @@ within a circle's radius + half a cell (one distance-field lookup per circle).
 Failure modes handled on purpose:
 - Start inside the inscribed zone (real DWA rejects every trajectory and the robot
   never moves): the current pose's clearance c0 < 0 switches to escape mode, where
-  trajectories are valid if their clearance never drops below c0.
+  trajectories are valid if their clearance never drops below c0, and slow reversing
+  (down to -ESCAPE_VEL_X) is sampled too: a robot stopped nose-in or parallel against a
+  wall has no forward motion that does not cut into its clearance.
 - Spinning / oscillating in place: base_local_planner's oscillation flags (a reversal
   of rotation, strafe or direction is forbidden until the robot has moved
   oscillation_reset_dist or turned oscillation_reset_angle).
@@ -43,6 +45,7 @@ Failure modes handled on purpose:
   sqrt(2 * acc_lim_theta * |yaw error|) so the turn cannot overshoot.
 - Ghost obstacles: handled in the obstacle layer (layers.scan_to_observation).
 """
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -57,6 +60,11 @@ NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_po
 PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
 ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the goal sooner
 ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated in escape mode
+ESCAPE_VEL_X = 0.2         # [m/s] backing-up speed allowed in escape mode even when min_vel_x >= 0
+NO_OBSTACLE_DIST = 1.0e6   # [m] distance field value when the costmap has no blocked cell
+ESCAPE_GAIN = 0.01         # [m] clearance a backing-up trajectory must regain in escape mode
+REMAP_COLS = 4096          # poses per row of the cv2.remap maps
+OUTSIDE_DIST = -1.0e6      # [m] distance field value off the costmap (counts as a collision)
 
 
 # A latched xy goal is let go when the robot ends up farther than this many
@@ -348,6 +356,7 @@ class DWAPlanner:
         self.goal_reached = False
         self.rotating_to_goal = False
         self._closest = 0
+        self._escape_floor = None  # [m] escape mode's clearance floor (None: not escaping)
 
     def set_plan(self, plan, goal_yaw):
         """A new global plan: (N, 2) points [m] in the costmap frame, goal heading [rad]."""
@@ -387,20 +396,39 @@ class DWAPlanner:
         return plan[:max(end, 1)] if end > 0 else plan[:0]
 
     def _footprint_clearance(self, dist_m, costmap, x, y, th):
-        """Clearance [m] (negative: collision) of poses (any shape) from lethal/unknown cells."""
+        """Clearance [m] (negative: collision) of poses (any shape) from lethal/unknown cells.
+
+        The distance field (distance of each cell centre to the nearest blocked cell
+        centre) is interpolated bilinearly at each circle centre: a nearest-cell lookup
+        would be off by up to half a cell diagonal (3.5 cm at 5 cm cells) and jump as the
+        robot crosses cells, so that a robot near the limit could not move without its
+        clearance seeming to drop.
+        """
         res = costmap.resolution
-        clear = np.full(np.shape(x), np.inf)
+        shape = np.shape(x)
+        n = int(np.prod(shape))
+        # cv2.remap wants 2-D maps under 32767 a side: lay the poses out in rows of REMAP_COLS.
+        rows = max(1, -(-n // REMAP_COLS))
+        cols = min(n, REMAP_COLS) if n else 1
+
+        def lay_out(v):
+            flat = np.zeros(rows * cols)
+            flat[:n] = np.asarray(v, dtype=np.float64).ravel()
+            return flat.reshape(rows, cols)
+
+        x, y, th = lay_out(x), lay_out(y), lay_out(th)
+        clear = np.full(x.shape, np.inf, dtype=np.float32)
         c, s = np.cos(th), np.sin(th)
-        h, w = dist_m.shape
+        field = np.asarray(dist_m, dtype=np.float32)
         for cx, cy in self.circle_centres:
-            px = x + cx * c - cy * s
-            py = y + cx * s + cy * c
-            mx = np.floor((px - costmap.origin_x) / res).astype(np.int64)
-            my = np.floor((py - costmap.origin_y) / res).astype(np.int64)
-            inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
-            d = np.where(inside, dist_m[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)], -np.inf)
-            clear = np.minimum(clear, d - (self.circle_radius + 0.5 * res))
-        return clear
+            # Continuous cell-centre coordinates; cv2.remap interpolates bilinearly (in C)
+            # and answers OUTSIDE_DIST off the grid.
+            fx = ((x + cx * c - cy * s - costmap.origin_x) / res - 0.5).astype(np.float32)
+            fy = ((y + cx * s + cy * c - costmap.origin_y) / res - 0.5).astype(np.float32)
+            d = cv2.remap(field, fx, fy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                          borderValue=OUTSIDE_DIST)
+            np.minimum(clear, d, out=clear)
+        return (clear.astype(np.float64).ravel()[:n] - (self.circle_radius + 0.5 * res)).reshape(shape)
 
     # -- main entry ---------------------------------------------------------------------
     def compute_velocity(self, pose, velocity, costmap):
@@ -428,7 +456,18 @@ class DWAPlanner:
             if cfg.latch_xy_goal_tolerance:
                 self.xy_latched = True
             return self._stop_and_rotate(pose, velocity, costmap)
+        res = self._dwa_step(pose, velocity, costmap, force_escape=False)
+        if not res.ok and res.mode == "dwa" and res.n_samples > 0:
+            # Pressed against the clearance limit (c0 just >= 0) every motion may dip below
+            # it: fall back to escape mode (no clearance loss, slow reversing allowed).
+            res = self._dwa_step(pose, velocity, costmap, force_escape=True)
+        return res
 
+    def _dwa_step(self, pose, velocity, costmap, force_escape):
+        """Sample, simulate, score; escape mode when forced or when the robot needs it."""
+        cfg = self.config
+        goal = self.plan[-1]
+        dist_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
         local = self._local_plan(pose, costmap)
         if len(local) == 0:
             return DWAResult(ok=False, reason="the global plan does not reach into the local costmap")
@@ -439,7 +478,7 @@ class DWAPlanner:
         blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
         dist_obs = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
                                          cv2.DIST_MASK_PRECISE) * res if blocked.any() \
-            else np.full(data.shape, np.inf, dtype=np.float32)
+            else np.full(data.shape, NO_OBSTACLE_DIST, dtype=np.float32)
         dist_path, togo = path_distance_maps(local, costmap)
         local_goal = local[-1]
 
@@ -447,10 +486,20 @@ class DWAPlanner:
         c0 = float(self._footprint_clearance(dist_obs, costmap, np.array(pose[0]),
                                              np.array(pose[1]), np.array(pose[2])))
         cc = costmap.cost_at(pose[0], pose[1])
-        escape = c0 < 0 or cc is None or cc >= INSCRIBED_INFLATED_OBSTACLE
+        escape = force_escape or c0 < 0 or cc is None or cc >= INSCRIBED_INFLATED_OBSTACLE
+        # The clearance floor of escape mode only rises while the robot stays in it, so the
+        # slack cannot be spent again each cycle to creep into the wall.
+        floor = min(c0, 0.0)
+        if escape and self._escape_floor is not None:
+            floor = max(floor, self._escape_floor)
+        self._escape_floor = floor if escape else None
 
-        window = dynamic_window(cfg, velocity)
-        samples = sample_velocities(cfg, window, self.holonomic)
+        # In escape mode the robot may also back up slowly: nose-in against a wall (or
+        # parallel to it, where any turn swings the tail in) no forward motion regains
+        # clearance, and the real planner would sit there until recoveries clear it.
+        scfg = dataclasses.replace(cfg, min_vel_x=min(cfg.min_vel_x, -ESCAPE_VEL_X)) if escape else cfg
+        window = dynamic_window(scfg, velocity)
+        samples = sample_velocities(scfg, window, self.holonomic)
         if len(samples) == 0:
             return DWAResult(ok=False, reason="no velocity sample in the dynamic window")
         horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
@@ -466,7 +515,9 @@ class DWAPlanner:
         centre = np.where(inside, data[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)], NO_INFORMATION)
         clearance = self._footprint_clearance(dist_obs, costmap, x, y, th)
         if escape:
-            valid = (clearance.min(axis=1) >= min(c0, 0.0) - ESCAPE_SLACK) & \
+            # Backing up only where it regains clearance (never drive away backwards).
+            valid = ((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN)) & \
+                    (clearance.min(axis=1) >= floor - ESCAPE_SLACK) & \
                     (centre != LETHAL_OBSTACLE).all(axis=1) & inside.all(axis=1)
             occ = centre[:, n_score - 1].astype(np.float64)
             occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
@@ -485,7 +536,16 @@ class DWAPlanner:
         final = len(local) == len(self.plan) - self._closest if cfg.prune_plan else \
             len(local) == len(self.plan)
         if final:
-            dg = np.hypot(x[:, :n_score] - goal[0], y[:, :n_score] - goal[1])
+            # Closest approach measured along the path (plan length left + distance to
+            # the plan), not straight: when the plan winds round a wall to a goal that is
+            # near as the crow flies, driving along it first moves away from the goal, and
+            # a straight measure would make every trajectory's best point its start (the
+            # robot would spin in place).
+            sx, sy = mx[:, :n_score], my[:, :n_score]
+            sin = inside[:, :n_score]
+            dg = np.where(sin, togo[sy.clip(0, h - 1), sx.clip(0, w - 1)]
+                          + dist_path[sy.clip(0, h - 1), sx.clip(0, w - 1)], np.inf)
+            dg = dg + 1e-3 * np.hypot(x[:, :n_score] - goal[0], y[:, :n_score] - goal[1])  # ties: nearer
             k = np.argmin(dg, axis=1)
             rows = np.arange(len(samples))
             ex, ey, eth = x[rows, k], y[rows, k], th[rows, k]

@@ -16,6 +16,10 @@ The algorithm, in the order it runs:
    quadratic interpolation; the 8-connected graph gives a comparably isotropic
    potential, and the slow pure-Python ``dijkstra_reference`` on the same graph is the
    test oracle.)
+   Bounded like A*: only the cells a path to the goal can need are settled
+   (GridGraph.potential_toward: edge weights reduced by a consistent octile heuristic,
+   lifted by a coarse-grid cost-to-goal guide, and a distance limit from a coarse-grid
+   cost estimate; the full search runs when the goal is blocked, for default_tolerance).
 3. Goal: the goal cell if it was reached; else, with default_tolerance > 0, the reached
    cell closest to the goal inside the tolerance square (navfn_ros::makePlan).
 4. Path: from the goal down the potential's gradient to the robot (navfn's calcPath):
@@ -23,6 +27,10 @@ The algorithm, in the order it runs:
    gradient; where any neighbour of the current cell is unreached (an obstacle) or the
    path oscillates, a grid step to the lowest-potential neighbour instead. Either way
    each point lies in a reached cell, so the path never touches a forbidden cell.
+5. Straightening (shortcut_path): the 8-connected potential makes the descent follow
+   octile directions; a straight segment replaces a stretch of path when it stays in
+   cells whose neighbours are all passable and costs no more in navfn's metric (cell
+   cost integrated along it), then the path is resampled every PATH_STEP.
 
 Deliberate difference from navfn: a robot whose centre is in an inscribed (or, without
 allow_unknown, unknown) cell still gets a plan: the forbidden, non-lethal region that
@@ -52,6 +60,18 @@ COST_OBS = 254         # navfn's forbidden-cell value
 POT_HIGH = 1.0e10      # potential of an unreached cell
 PATH_STEP = 0.5        # gradient-descent step [cells] (navfn's pathStep)
 SQRT2 = math.sqrt(2.0)
+# A* bounding (GridGraph.potential_toward): the search from the robot runs SciPy's Dijkstra
+# on edge weights reduced by an octile-distance heuristic to the goal, with a distance
+# limit, so it settles only the cells that can lie on a path at most that expensive.
+COARSE_FACTOR = 4      # [cells] block size of the coarse grid that estimates the plan cost
+BOUND_MARGIN = 1.04    # limit = this x the coarse cost estimate (which runs ~2-4 % low)
+BOUND_GROWTH = 1.15    # the limit grows by this factor when the goal was not settled
+GUIDE_WEIGHT = 0.9     # coarse cost-to-goal x this = the A* guide (kept below the true cost)
+BOUND_TRIES = 3        # limited tries before the full (unlimited) Dijkstra
+# Path shortcutting (shortcut_path): candidate ends looked at ahead of each anchor.
+SHORTCUT_STRIDE = 8    # [path points] between candidate ends
+SHORTCUT_WINDOW = 320  # [path points] (PATH_STEP each) looked ahead at most
+SHORTCUT_SAMPLE = 1.0   # [cells] sample spacing along a segment (safe cells: 3x3-eroded)
 # 8-connected neighbour offsets (dx, dy) and step lengths [cells].
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1))
 
@@ -131,8 +151,68 @@ class GridGraph:
             cols += [nb, na]
             wts += [wt, wt]
         n = self.cells.size
+        self.min_cost = float(flat_cost[self.cells].min()) if n else COST_NEUTRAL
         self.matrix = sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))),
                                     shape=(n, n))
+
+    @property
+    def _edge_rows(self):
+        """(source node, target node) of every stored edge, (nnz,) intp each, CSR order (cached)."""
+        if getattr(self, "_rows", None) is None:
+            self._rows = (np.repeat(np.arange(self.matrix.shape[0], dtype=np.intp), np.diff(self.matrix.indptr)),
+                          self.matrix.indices.astype(np.intp))
+        return self._rows
+
+    def component_of(self, cell):
+        """8-connected component label of flat cell index cell (-1 if not passable)."""
+        if getattr(self, "_labels", None) is None:
+            from scipy.sparse.csgraph import connected_components
+            _, self._labels = connected_components(self.matrix, directed=False)
+        node = self.node_of[cell]
+        return int(self._labels[node]) if node >= 0 else -1
+
+    def potential_toward(self, source_cell, target_cell, cost_estimate=None, guide=None):
+        """Dijkstra potential from source_cell, settled only as far as target_cell needs.
+
+        A* through SciPy: edge weights are reduced by the consistent heuristic
+        h = (cheapest cell cost) x octile distance to the target, w' = w + h(v) - h(u) >= 0,
+        and Dijkstra on w' with a distance limit settles exactly the cells v with
+        d(s, v) + h(v) <= limit + h(s); their potentials d(s, v) are exact. The limit
+        starts at BOUND_MARGIN x cost_estimate (a plan cost estimate, e.g. from a coarse
+        grid) and grows until the target is settled; when it cannot be (different
+        components), or after BOUND_TRIES, the full Dijkstra runs.
+        Returns (H, W) potentials, POT_HIGH where not settled.
+        """
+        src, tgt = self.node_of[source_cell], self.node_of[target_cell]
+        if src < 0 or tgt < 0 or self.component_of(source_cell) != self.component_of(target_cell):
+            return self.potential(source_cell)
+        h, w = self.shape
+        tx, ty = target_cell % w, target_cell // w
+        dx = np.abs(self.cells % w - tx).astype(np.float64)
+        dy = np.abs(self.cells // w - ty).astype(np.float64)
+        heur = self.min_cost * (np.maximum(dx, dy) + (SQRT2 - 1.0) * np.minimum(dx, dy))
+        if guide is not None:
+            heur = np.maximum(heur, np.asarray(guide, dtype=np.float64).ravel()[self.cells])
+        m = self.matrix
+        rows, cols = self._edge_rows
+        reduced = np.take(heur, cols)
+        reduced -= np.take(heur, rows)
+        reduced += m.data
+        np.maximum(reduced, 0.0, out=reduced)  # rounding only: the heuristic is consistent
+        rm = sp.csr_matrix((reduced, m.indices, m.indptr), shape=m.shape)
+        hs = heur[src]
+        est = hs if cost_estimate is None or not math.isfinite(cost_estimate) else max(hs, cost_estimate)
+        limit = max(BOUND_MARGIN * est - hs, self.min_cost)
+        for _ in range(BOUND_TRIES):
+            d = _sp_dijkstra(rm, directed=True, indices=int(src), limit=limit)
+            if np.isfinite(d[tgt]):
+                pot = np.full(h * w, POT_HIGH)
+                reached = np.isfinite(d)
+                pot[self.cells[reached]] = d[reached] + hs - heur[reached]
+                pot[source_cell] = 0.0
+                return pot.reshape(self.shape)
+            limit = BOUND_GROWTH * (limit + hs) - hs
+        return self.potential(source_cell)
 
     def potential(self, source_cell, limit=np.inf):
         """Dijkstra distances (H, W) from flat cell index source_cell; POT_HIGH where unreached."""
@@ -272,6 +352,96 @@ def gradient_path(pot, start_cell, max_cycles=None):
     return None
 
 
+def coarse_cost_grid(cell_cost, factor=COARSE_FACTOR):
+    """Optimistic coarse version of a cell-cost grid: each factor x factor block gets its
+    cheapest cell's cost (inf when all its cells are forbidden). Distances on it x factor
+    estimate (mostly from below) the plan cost on the fine grid."""
+    c = np.asarray(cell_cost, dtype=np.float64)
+    h, w = c.shape
+    hp, wp = -(-h // factor) * factor, -(-w // factor) * factor
+    pad = np.full((hp, wp), np.inf)
+    pad[:h, :w] = c
+    return pad.reshape(hp // factor, factor, wp // factor, factor).min(axis=(1, 3))
+
+
+def shortcut_path(cells, cell_cost, safe=None):
+    """Straighten a descent path where a straight segment is cheaper in navfn's metric.
+
+    cells: (N, 2) continuous cell coordinates (centres at integers); cell_cost: (H, W)
+    navfn costs (inf forbidden); safe: (H, W) bool, cells a straight segment may cross
+    (default: passable cells whose 8 neighbours are passable too, so that a segment
+    between two samples SHORTCUT_SAMPLE apart cannot clip a forbidden cell).
+    Greedy string pulling: from each anchor, the farthest candidate point whose straight
+    segment stays in safe cells and whose cost integral (sum of sampled cell costs x
+    length) is at most that of the path it replaces. The 8-connected potential makes
+    the descent follow octile directions (up to 8 % longer than straight); this removes
+    that without pulling the path into the inflated cost near walls.
+    Returns (M, 2) with the same ends.
+    """
+    p = np.asarray(cells, dtype=np.float64)
+    if len(p) < 3:
+        return p
+    cost = np.asarray(cell_cost, dtype=np.float64)
+    h, w = cost.shape
+    if safe is None:
+        ok = np.isfinite(cost).astype(np.uint8)
+        safe = cv2.erode(np.pad(ok, 1, constant_values=0), np.ones((3, 3), np.uint8))[1:-1, 1:-1] > 0
+
+    def cell_cost_at(q):
+        ix = np.clip(np.floor(q[:, 0] + 0.5).astype(np.int64), 0, w - 1)
+        iy = np.clip(np.floor(q[:, 1] + 0.5).astype(np.int64), 0, h - 1)
+        return cost[iy, ix], safe[iy, ix]
+
+    # Cost integral of the path up to each point (same sampling rule as the segments).
+    seg_len = np.hypot(*np.diff(p, axis=0).T)
+    mid = 0.5 * (p[:-1] + p[1:])
+    c_end, _ = cell_cost_at(p)
+    c_mid, _ = cell_cost_at(mid)
+    # (A diagonal grid step past a corner has its midpoint in a forbidden cell: count it
+    # at COST_OBS so the integral stays finite.)
+    c_end, c_mid = np.minimum(c_end, COST_OBS), np.minimum(c_mid, COST_OBS)
+    seg_cost = seg_len * (0.25 * c_end[:-1] + 0.5 * c_mid + 0.25 * c_end[1:])
+    prefix = np.concatenate([[0.0], np.cumsum(seg_cost)])
+    out = [p[0]]
+    i, n = 0, len(p)
+    while i < n - 1:
+        cand = np.arange(min(n - 1, i + SHORTCUT_WINDOW), i + 1, -SHORTCUT_STRIDE)
+        best = i + 1
+        if len(cand):
+            # All candidate segments' samples at once: segment k has m[k] samples.
+            seg = p[cand] - p[i]
+            length = np.hypot(seg[:, 0], seg[:, 1])
+            m = np.maximum(2, np.ceil(length / SHORTCUT_SAMPLE).astype(np.int64) + 1)
+            own = np.repeat(np.arange(len(cand)), m)
+            first = np.concatenate([[0], np.cumsum(m)[:-1]])
+            pos = np.arange(own.size) - first[own]
+            t = pos / (m[own] - 1.0)
+            c, sf = cell_cost_at(p[i] + t[:, None] * seg[own])
+            # Trapezoid rule per segment: its two ends weigh half.
+            wgt = np.where((pos == 0) | (pos == m[own] - 1), 0.5, 1.0)
+            line_cost = np.bincount(own, weights=np.where(sf, c, 0.0) * wgt, minlength=len(cand)) \
+                * length / (m - 1)
+            line_ok = np.bincount(own, weights=(~sf).astype(np.float64), minlength=len(cand)) == 0
+            good = line_ok & (line_cost <= prefix[cand] - prefix[i] + 1e-9)
+            if good.any():
+                best = int(cand[np.argmax(good)])  # cand runs from far to near
+        out.append(p[best])
+        i = best
+    return np.array(out)
+
+
+def resample_path(path, step):
+    """Points every <= step along a polyline (N, 2), its vertices' ends kept."""
+    p = np.asarray(path, dtype=np.float64)
+    if len(p) < 2:
+        return p
+    seg = np.hypot(*np.diff(p, axis=0).T)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    n = max(2, int(math.ceil(arc[-1] / step)) + 1)
+    s = np.linspace(0.0, arc[-1], n)
+    return np.column_stack([np.interp(s, arc, p[:, 0]), np.interp(s, arc, p[:, 1])])
+
+
 def grid_descent_path(pot, start_cell):
     """Steepest-descent path over 8-neighbours (cell centres) from start_cell to the source."""
     pot = np.asarray(pot)
@@ -331,8 +501,31 @@ class NavFn:
                 and np.array_equal(self._cache_costs, cell_cost):
             return self._graph
         self._graph = GridGraph(cell_cost)
+        self._coarse = GridGraph(coarse_cost_grid(cell_cost))
+        ok = np.isfinite(cell_cost).astype(np.uint8)
+        self._safe = cv2.erode(np.pad(ok, 1, constant_values=0), np.ones((3, 3), np.uint8))[1:-1, 1:-1] > 0
         self._cache_costs = cell_cost.copy()
         return self._graph
+
+    def _coarse_guide(self, sc, gc, shape):
+        """(plan cost estimate [navfn units] from cell sc to cell gc, or None;
+        (H, W) A* guide: GUIDE_WEIGHT x the coarse cost-to-goal, bilinear between block centres).
+        """
+        k = COARSE_FACTOR
+        cw = self._coarse.shape[1]
+        pot = self._coarse.potential(gc[1] // k * cw + gc[0] // k)
+        v = pot[sc[1] // k, sc[0] // k]
+        if v >= POT_HIGH:
+            return None, None
+        reached = pot < POT_HIGH
+        pot = np.where(reached, pot * k, 0.0).astype(np.float32)
+        # Blocks with no passable cell take their neighbours' largest value, so the
+        # interpolation does not dip next to walls.
+        grown = cv2.dilate(pot, np.ones((3, 3), np.uint8))
+        pot = np.where(reached, pot, grown)
+        h, w = shape
+        fine = cv2.resize(pot, (pot.shape[1] * k, pot.shape[0] * k), interpolation=cv2.INTER_LINEAR)
+        return k * float(v), GUIDE_WEIGHT * fine[:h, :w]
 
     def make_plan(self, costmap, start, goal, tolerance=None):
         """Plan on costmap (a Costmap2D) from start (x, y) [m] to goal (x, y) [m].
@@ -360,7 +553,12 @@ class NavFn:
             cell_cost = _open_start_region(data, cell_cost, sc)
         h, w = data.shape
         graph = self._graph_for(cell_cost)
-        pot = graph.potential(sc[1] * w + sc[0])
+        if np.isfinite(cell_cost[gc[1], gc[0]]):
+            # Settle only what a path to the goal needs (A*-bounded, exact potentials).
+            estimate, guide = self._coarse_guide(sc, gc, data.shape)
+            pot = graph.potential_toward(sc[1] * w + sc[0], gc[1] * w + gc[0], estimate, guide)
+        else:
+            pot = graph.potential(sc[1] * w + sc[0])  # default_tolerance looks around the goal
         target = gc
         if pot[gc[1], gc[0]] >= POT_HIGH:
             target = _nearest_reached(pot, costmap, goal, tol) if tol > 0 else None
@@ -372,6 +570,7 @@ class NavFn:
             cells = grid_descent_path(pot, target)  # always succeeds on a Dijkstra potential
         if cells is None:
             return PlanResult(reason="no path: the gradient descent failed")
+        cells = resample_path(shortcut_path(cells, cell_cost, self._safe), PATH_STEP)
         res = costmap.resolution
         world = np.column_stack([costmap.origin_x + (cells[:, 0] + 0.5) * res,
                                  costmap.origin_y + (cells[:, 1] + 0.5) * res])[::-1]
