@@ -1,0 +1,98 @@
+#!/usr/bin/python3
+"""rostest (tests/course_project.test): the course project end to end, by ground truth.
+
+The steps are tools/course_project.py's (shared with `make demo`): map the building with
+slam_gmapping and the tour driver, save the map with map_saver, stop gmapping, start
+main.launch on the saved map with SLAM's last pose as amcl's initial pose, drive to the
+three spots and record each with /save_spot, then 'end'; drive back to the hall; call
+/get_coordinates for table, room, turtle. Asserts: the saved map resembles the building
+(precision/recall against the true walls), every goal and call succeeds, the robot
+stands within ~xy_tolerance / ~yaw_tolerance of each world spot after its
+/get_coordinates call, the spots file holds the three labels, zero collisions.
+"""
+import math
+import os
+import sys
+import time
+import unittest
+
+import rospkg
+import rospy
+import rostest
+import yaml
+
+WS = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+sys.path.insert(0, os.path.join(WS, "tools"))
+sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
+import course_project as cp  # noqa: E402
+from bench_slam_sim import TourRecorder  # noqa: E402
+
+
+class CourseProjectEndToEnd(unittest.TestCase):
+    def test_course_project(self):
+        rospy.init_node("course_project_test")
+        xy_tol, yaw_tol = rospy.get_param("~xy_tolerance"), rospy.get_param("~yaw_tolerance")
+        work = os.path.join(rospkg.get_ros_home(), "course_project")
+        wall0 = time.monotonic()
+
+        def progress(text):
+            print(f"[sim {rospy.Time.now().to_sec():7.1f} s | wall {time.monotonic() - wall0:6.1f} s] {text}",
+                  flush=True)
+
+        from my_summit_mapping.slam_config import SlamConfig
+        from summit_xl_sim.world import World
+        world = World.from_yaml(rospy.get_param("/summit_xl_sim/world"))
+        with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
+            max_urange = SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
+        with cp.CourseProject(work, progress) as project:
+            project.wait(lambda: project.pose() is not None, "waiting for ground truth", 60)
+            # 1. map, save, stop gmapping
+            recorder = project.map_building(TourRecorder)
+            quality = recorder.evaluate(world, max_urange)
+            progress(f"map: ATE {quality['ate_m']:.3f} m, precision {quality['precision']:.3f}, "
+                     f"recall {quality['recall']:.3f}")
+            base = os.path.join(work, "my_map")
+            initial = project.save_map(base)
+            # 2. localize on the saved map, record the spots
+            spots_file = os.path.join(work, "spots.txt")
+            project.start_navigation(base + ".yaml", initial, spots_file)
+            for label in cp.RECORD_ORDER:
+                state, text = project.drive_to(label)
+                self.assertEqual(state, 3, f"driving to '{label}' to record it: {text}")
+                resp = project.call("/save_spot", label)
+                self.assertTrue(resp.navigation_successfull, f"/save_spot '{label}': {resp.message}")
+                err = project.error_to(label)
+                progress(f"/save_spot '{label}': {resp.message} (robot {err[0]:.3f} m, "
+                         f"{math.degrees(err[1]):.1f} deg from the spot)")
+            resp = project.call("/save_spot", "end")
+            self.assertTrue(resp.navigation_successfull, f"/save_spot 'end': {resp.message}")
+            with open(spots_file) as f:
+                saved = yaml.safe_load(f)
+            self.assertEqual(set(cp.RECORD_ORDER), set(saved["spots"]), saved)
+            # back to the hall, so that the calls cross from the hall into the fetch room
+            state, text = project.drive_home()
+            self.assertEqual(state, 3, f"driving back to the hall: {text}")
+            # 4. /get_coordinates
+            rows = []
+            for label in cp.SPOT_ORDER:
+                t0 = rospy.Time.now().to_sec()
+                resp = project.call("/get_coordinates", label)
+                rospy.sleep(0.5)
+                err = project.error_to(label)
+                rows.append((label, resp.navigation_successfull, resp.message, err))
+                print(f"GET_COORDINATES label={label} ok={resp.navigation_successfull} message={resp.message!r} "
+                      f"sim_time_s={rospy.Time.now().to_sec() - t0:.1f} final_xy_error_m={err[0]:.3f} "
+                      f"final_yaw_error_rad={err[1]:.3f} collisions={project.collisions}", flush=True)
+            progress(f"done: {project.collisions} collisions")
+            self.assertGreaterEqual(quality["precision"], rospy.get_param("~min_precision"))
+            self.assertGreaterEqual(quality["recall"], rospy.get_param("~min_recall"))
+            for label, ok, message, (exy, eyaw) in rows:
+                self.assertTrue(ok, f"/get_coordinates '{label}': {message}")
+                self.assertEqual(message, "OK", label)
+                self.assertLessEqual(exy, xy_tol, f"{label}: {exy:.3f} m from the spot")
+                self.assertLessEqual(eyaw, yaw_tol, f"{label}: {eyaw:.3f} rad off the spot's heading")
+            self.assertEqual(project.collisions, 0, "the robot collided")
+
+
+if __name__ == "__main__":
+    rostest.rosrun("my_summit_navigation", "course_project", CourseProjectEndToEnd, sys.argv)
