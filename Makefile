@@ -14,7 +14,7 @@ SETUP_STAMP := build/.setup-done
 BUILD_STAMP := devel/setup.bash
 PY_SOURCES := $(shell find src -name '*.py' -o -name 'CMakeLists.txt' -o -name 'package.xml' -o -name '*.srv' -o -name '*.msg' 2>/dev/null)
 
-.PHONY: all setup build test unit integration demo bench frames clean world
+.PHONY: all setup build test unit integration demo bench frames clean world e2e-seeds
 all: build
 
 # Installs the system packages listed once in docker/packages-debian.txt (apt; sudo when
@@ -46,6 +46,10 @@ demo: build
 
 bench: build
 	@$(SOURCE_WS) $(PYTHON) tools/bench.py $(BENCH_ARGS)
+
+# The end-to-end rostest (tests/course_project.test) once per simulator seed: SEEDS="1 2 3".
+e2e-seeds: build
+	@$(SOURCE_WS) $(PYTHON) tools/e2e_seeds.py $(SEEDS)
 
 # The tf tree as PDF and PNG (tf2_tools view_frames), as in the course's first step.
 frames: build

@@ -40,6 +40,7 @@ TOUR_FILE = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building_
 WORLD_DESCRIPTION = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.world.yaml")
 SPOT_ORDER = ("table", "room", "turtle")   # the course's calls: hall -> fetch room table -> centre -> poster
 RECORD_ORDER = ("room", "turtle", "table")  # the order the spots are recorded in (course step 2)
+EYE_XY_TOL, EYE_YAW_TOL, EYE_TRIES = 0.08, 0.08, 2   # [m], [rad]: "there" by eye when recording a spot
 
 
 def wrap(a):
@@ -97,6 +98,7 @@ class CourseProject:
         self.collisions = 0
         self.spawn = tuple(float(rospy.get_param("/summit_xl_sim/" + k)) for k in ("x", "y", "yaw"))
         self.spots = world_spots()
+        self._tf = None               # tf2 buffer for amcl_pose (made once navigation starts)
         self._subs = [rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=50),
                       rospy.Subscriber("/collisions", UInt32, self._on_coll, queue_size=5)]
 
@@ -247,15 +249,41 @@ class CourseProject:
         self.start("spot_recorder", ["roslaunch", "my_summit_localization", "spot_recorder.launch",
                                      f"spots_file:={spots_file}"])
         self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        import tf2_ros
+        self._tf = tf2_ros.Buffer()
+        self._tf_listener = tf2_ros.TransformListener(self._tf)
         self.wait(lambda: self.client.wait_for_server(rospy.Duration(0.2)), "waiting for move_base", 120)
         for srv in ("/save_spot", "/get_coordinates"):
             self.wait(lambda: self._has_service(srv), f"waiting for {srv}", 60)
         self.progress("map_server, amcl, move_base, /save_spot and /get_coordinates up on the saved map")
 
     def drive_to(self, label, timeout_wall=240.0):
-        """Drive to a spot with a move_base goal in the map frame (the student's keyboard
-        in step 2). Returns (actionlib state, result text)."""
-        return self.drive_to_pose(label, self.spot_in_map(label), timeout_wall)
+        """Bring the robot to a spot as the student does in step 2: by eye, i.e. by ground
+        truth. A move_base goal at the spot's nominal map pose first; the fresh map is
+        slightly distorted (SLAM error), so while the robot stands more than
+        EYE_XY_TOL / EYE_YAW_TOL from the real spot it gets a corrected goal (its amcl
+        pose moved by what ground truth says is still missing), at most EYE_TRIES times.
+        Returns (actionlib state, result text) of the last goal."""
+        state, text = self.drive_to_pose(label, self.spot_in_map(label), timeout_wall)
+        for _ in range(EYE_TRIES):
+            exy, eyaw = self.error_to(label)
+            if state != 3 or (exy <= EYE_XY_TOL and eyaw <= EYE_YAW_TOL):
+                break
+            missing = relative(self.pose(), self.spots[label])   # the spot seen from the robot
+            self.progress(f"'{label}': {exy:.2f} m / {math.degrees(eyaw):.0f} deg off by eye: closer")
+            state, text = self.drive_to_pose(label, compose(self.amcl_pose(), missing), timeout_wall)
+        return state, text
+
+    def amcl_pose(self, timeout_wall=10.0):
+        """The robot's pose in the map frame as the stack believes it (tf map ->
+        base_footprint: amcl's map -> odom and the odometry)."""
+        import rospy
+        import tf2_ros
+        if self._tf is None:
+            self._tf = tf2_ros.Buffer()
+            self._tf_listener = tf2_ros.TransformListener(self._tf)
+        t = self._tf.lookup_transform("map", "base_footprint", rospy.Time(0), rospy.Duration(timeout_wall)).transform
+        return (t.translation.x, t.translation.y, yaw_of(t.rotation))
 
     def drive_home(self, timeout_wall=240.0):
         """Drive back to where mapping began (the map frame's origin, in the main hall)."""

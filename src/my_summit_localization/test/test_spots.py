@@ -135,3 +135,13 @@ def test_atomic_write_failing_rename_keeps_the_old_file(tmp_path, monkeypatch):
         write_atomic(p, "new\n")
     assert p.read_text() == "old\n"
     assert os.listdir(tmp_path) == ["spots.txt"]
+
+
+def test_atomic_write_gives_the_mode_of_a_plain_open(tmp_path):
+    """spots.txt is readable by others like any file the user writes (not mkstemp's 0600)."""
+    umask = os.umask(0o022)
+    try:
+        path = write_atomic(tmp_path / "spots.txt", "spots: {}\n")
+    finally:
+        os.umask(umask)
+    assert os.stat(path).st_mode & 0o777 == 0o644
