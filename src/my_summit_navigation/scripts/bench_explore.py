@@ -1,0 +1,156 @@
+#!/usr/bin/python3
+"""Benchmark of frontier exploration (explore.launch) from seeded start poses.
+
+For each run: the simulator on the world with the robot at a seeded random free pose
+(at least CLEARANCE m from any obstacle), slam_gmapping + move_base on the live map +
+explore, until explore says it is over (or the wall-time limit). Reported per run:
+explored share of the reachable free area (my_summit_navigation.frontiers.
+exploration_coverage), simulated and wall time, collisions, why it ended, and the map's
+precision / recall against the true walls with the SLAM trajectory's ATE (the mapping
+benchmark's evaluation).
+
+    bench_explore.py [--world builtin|willow] [--runs 5] [--seed 0] [--speed 3] [--json PATH]
+
+Each run is a child process (rospy binds one process to one ROS master).
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
+sys.path.insert(0, os.path.join(WS, "tools"))
+WORLDS = {
+    "builtin": os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.yaml"),
+    "willow": os.path.join(WS, "..", "shared", "data", "maps", "willow-full.yaml"),
+    "two_rooms": os.path.join(WS, "src", "summit_xl_sim", "worlds", "two_rooms.yaml"),
+}
+CLEARANCE = 0.8          # [m] start poses at least this far from obstacles
+WALL_LIMIT = {"builtin": 900.0, "willow": 2400.0, "two_rooms": 400.0}  # [s] per run
+
+
+def start_poses(world_yaml, n, seed):
+    """n seeded (x, y, yaw) in the world's main free component, CLEARANCE from obstacles."""
+    import cv2
+    from scipy import ndimage
+    from summit_xl_sim.map_io import load_map
+    m = load_map(world_yaml)
+    free = m.data == 0
+    labels, k = ndimage.label(free)
+    main = labels == (np.argmax(np.bincount(labels.ravel())[1:]) + 1)
+    dist = cv2.distanceTransform(main.astype(np.uint8), cv2.DIST_L2, 5) * m.resolution
+    rr, cc = np.nonzero(dist >= CLEARANCE)
+    rng = np.random.default_rng(seed)
+    pick = rng.choice(len(rr), size=n, replace=False)
+    return [(float(m.origin[0] + (cc[i] + 0.5) * m.resolution), float(m.origin[1] + (rr[i] + 0.5) * m.resolution),
+             float(rng.uniform(-math.pi, math.pi))) for i in pick]
+
+
+def one_run(world_name, pose, speed, out_dir):
+    """One exploration in this process; returns the result dict."""
+    from roslaunch_session import RoslaunchSession, wait_for_sim_time_param
+    world_yaml = WORLDS[world_name]
+    x, y, yaw = pose
+    log = os.path.join(out_dir, f"explore_{world_name}_{x:.1f}_{y:.1f}.log")
+    args = ["my_summit_navigation", "explore.launch", "sim:=true", f"world:={world_yaml}", f"x:={x}", f"y:={y}",
+            f"yaw:={yaw}", f"speed:={speed}", f"save_map:={os.path.splitext(log)[0]}_map"]
+    with RoslaunchSession(args, log=log) as session:
+        wait_for_sim_time_param(session)
+        import rospy
+        import yaml
+        from std_msgs.msg import Bool, String, UInt32
+        from my_summit_mapping.slam_config import SlamConfig
+        from my_summit_navigation.frontiers import exploration_coverage
+        from summit_xl_sim.map_io import load_map
+        from summit_xl_sim.world import World
+        sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
+        from bench_slam_sim import TourRecorder
+        rospy.init_node("bench_explore", anonymous=True, disable_signals=True)
+        rec = TourRecorder()
+        st = {"done": False, "summary": None, "coll": 0}
+        rospy.Subscriber("/explore/done", Bool, lambda m: st.update(done=m.data), queue_size=1)
+        rospy.Subscriber("/explore/summary", String, lambda m: st.update(summary=m.data), queue_size=1)
+        rospy.Subscriber("/collisions", UInt32, lambda m: st.update(coll=max(st["coll"], m.data)), queue_size=5)
+        w0 = time.monotonic()
+        while not rospy.is_shutdown() and not (st["done"] and st["summary"]):
+            if not session.alive() or time.monotonic() - w0 > WALL_LIMIT[world_name]:
+                break
+            time.sleep(0.5)
+        sim_t = rospy.Time.now().to_sec()
+        wall_t = time.monotonic() - w0
+        # a map stamped after the end, for the evaluation
+        t_end = sim_t
+        while time.monotonic() - w0 < WALL_LIMIT[world_name] + 60 and session.alive():
+            with rec.lock:
+                m, p = rec.map_msg, rec.path_msg
+            if m is not None and p is not None and m.header.stamp.to_sec() >= t_end - 5.0:
+                break
+            time.sleep(0.5)
+        with rec.lock:
+            m = rec.map_msg
+        world_map = load_map(world_yaml)
+        slam = np.asarray(m.data, np.int8).reshape(m.info.height, m.info.width)
+        cov = exploration_coverage(world_map.data, world_map.resolution, world_map.origin[:2], pose, slam,
+                                   m.info.resolution, (m.info.origin.position.x, m.info.origin.position.y))
+        with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
+            max_urange = SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
+        quality = rec.evaluate(World.from_yaml(world_yaml), max_urange)
+    return {"world": world_name, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
+            "finished": bool(st["done"]), "summary": st["summary"], "sim_s": round(sim_t, 1),
+            "wall_s": round(wall_t, 1), "collisions": int(st["coll"]), "ate_m": round(quality["ate_m"], 4),
+            "precision": round(quality["precision"], 4), "recall": round(quality["recall"], 4)}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--world", choices=sorted(WORLDS), default="builtin")
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--speed", type=float, default=3.0)
+    ap.add_argument("--json", help="write the results here")
+    ap.add_argument("--child", nargs=3, type=float, help=argparse.SUPPRESS)
+    ap.add_argument("--child-out", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    out_dir = os.path.join(WS, "output", "bench_explore")
+    os.makedirs(out_dir, exist_ok=True)
+    if args.child:
+        res = one_run(args.world, tuple(args.child), args.speed, out_dir)
+        with open(args.child_out, "w") as f:
+            json.dump(res, f)
+        return 0
+    runs = []
+    for i, pose in enumerate(start_poses(WORLDS[args.world], args.runs, args.seed)):
+        tmp = os.path.join(out_dir, f".run_{i}.json")
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        subprocess.run([sys.executable, os.path.abspath(__file__), "--world", args.world, "--speed", str(args.speed),
+                        "--child", *map(str, pose), "--child-out", tmp])
+        if os.path.exists(tmp):
+            with open(tmp) as f:
+                r = json.load(f)
+            os.remove(tmp)
+        else:
+            r = {"world": args.world, "start": list(pose), "coverage": 0.0, "finished": False,
+                 "summary": "the run crashed (see output/bench_explore/*.log)"}
+        runs.append(r)
+        print(json.dumps(r), flush=True)
+    covs = [r["coverage"] for r in runs]
+    summary = {"world": args.world, "runs": runs, "coverage_min": min(covs), "coverage_median": float(np.median(covs)),
+               "all_finished": all(r["finished"] for r in runs),
+               "collisions": sum(r.get("collisions", 0) for r in runs),
+               "sim_s_median": float(np.median([r.get("sim_s", 0.0) for r in runs]))}
+    print(json.dumps({k: v for k, v in summary.items() if k != "runs"}))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(summary, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

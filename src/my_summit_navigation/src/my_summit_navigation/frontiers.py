@@ -1,0 +1,196 @@
+"""Frontier search for exploration, in the manner of explore_lite (no ROS here).
+
+Reference: B. Yamauchi, "A frontier-based approach for autonomous exploration", CIRA
+1997; explore_lite (J. Horner, m-explore, ROS wiki) for the costs and parameters:
+potential_scale, gain_scale, orientation_scale, min_frontier_size, progress_timeout.
+
+On a costmap_2d-style grid (nav_msgs/OccupancyGrid values of move_base's global costmap:
+-1 unknown, 0 free, 1..98 inflated, 99 inscribed, 100 lethal):
+
+1. reachable: the cells the robot centre can reach, the 4-connected component of cells
+   below the inscribed cost that holds the robot (scipy.ndimage.label);
+2. frontier cells: unknown cells with a reachable 4-neighbour;
+3. frontiers: 8-connected groups of frontier cells (cv2.connectedComponentsWithStats),
+   at least min_frontier_size [m] long (cell count x resolution);
+4. for each, its goal: the reachable cell next to the frontier nearest to the frontier's
+   centroid; its distance: the travel distance from the robot over reachable cells
+   (Dijkstra on a grid coarsened 4 x 4, scipy.sparse.csgraph);
+5. cost = potential_scale * distance - gain_scale * size [m]; cheapest first. Goals near
+   a blacklisted point (failed before) are left out.
+"""
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+UNKNOWN, INSCRIBED = -1, 99   # OccupancyGrid values of costmap_2d's NO_INFORMATION / INSCRIBED
+COARSE = 4                    # cells per side of one travel-distance cell
+
+
+@dataclass
+class Frontier:
+    """A frontier: size [m], centroid and goal (x, y) [m] in the grid's frame, travel
+    distance [m] from the robot, cost (lower is better)."""
+
+    size: float
+    centroid: tuple
+    goal: tuple
+    distance: float
+    cost: float = 0.0
+
+
+@dataclass
+class FrontierParams:
+    """explore_lite's parameters (same names and meanings)."""
+
+    potential_scale: float = 3.0
+    gain_scale: float = 1.0
+    min_frontier_size: float = 0.75   # [m]
+    blacklist_radius: float = 0.5     # [m] goals this close to a failed one are left out
+
+
+def reachable_mask(grid, start_cell):
+    """Bool mask of cells the robot centre reaches from start_cell (row, col): the
+    4-connected component of known cells below the inscribed cost. Empty if the start
+    cell itself is blocked or unknown (then the nearest such cell within 0.5 m is used)."""
+    passable = (grid >= 0) & (grid < INSCRIBED)
+    r, c = start_cell
+    if not (0 <= r < grid.shape[0] and 0 <= c < grid.shape[1]):
+        return np.zeros_like(passable)
+    if not passable[r, c]:
+        # The robot may stand in its own inscribed zone (close to a wall): start from the
+        # nearest passable cell around it.
+        r0, r1, c0, c1 = max(0, r - 10), min(grid.shape[0], r + 11), max(0, c - 10), min(grid.shape[1], c + 11)
+        rr, cc = np.nonzero(passable[r0:r1, c0:c1])
+        if len(rr) == 0:
+            return np.zeros_like(passable)
+        k = np.argmin((rr + r0 - r) ** 2 + (cc + c0 - c) ** 2)
+        r, c = rr[k] + r0, cc[k] + c0
+    labels, _ = ndimage.label(passable)
+    return labels == labels[r, c]
+
+
+def travel_distances(reach, start_cell, resolution):
+    """Travel distance [m] from start_cell to every cell of reach (np.inf elsewhere),
+    by Dijkstra over a grid coarsened COARSE x COARSE (a coarse cell is passable when any
+    of its cells is), 8-connected."""
+    h, w = reach.shape
+    hc, wc = -(-h // COARSE), -(-w // COARSE)
+    pad = np.zeros((hc * COARSE, wc * COARSE), bool)
+    pad[:h, :w] = reach
+    coarse = pad.reshape(hc, COARSE, wc, COARSE).any(axis=(1, 3))
+    idx = -np.ones(coarse.shape, np.int64)
+    nodes = np.flatnonzero(coarse)
+    idx.flat[nodes] = np.arange(len(nodes))
+    rows, cols, wts = [], [], []
+    for dr, dc, d in ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2)), (1, -1, math.sqrt(2))):
+        # pairs (r, c) -> (r + dr, c + dc) with both inside the grid
+        ca0, ca1 = (0, wc - dc) if dc >= 0 else (-dc, wc)
+        a = idx[0:hc - dr, ca0:ca1]
+        b = idx[dr:hc, ca0 + dc:ca1 + dc]
+        ok = (a >= 0) & (b >= 0)
+        rows.append(a[ok])
+        cols.append(b[ok])
+        wts.append(np.full(int(ok.sum()), d))
+    n = len(nodes)
+    graph = coo_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+    src = idx[start_cell[0] // COARSE, start_cell[1] // COARSE]
+    out = np.full((h, w), np.inf)
+    if src < 0:
+        return out
+    dist = dijkstra(graph, directed=False, indices=int(src)) * COARSE * resolution
+    dcoarse = np.full(coarse.shape, np.inf)
+    dcoarse.flat[nodes] = dist
+    full = np.repeat(np.repeat(dcoarse, COARSE, axis=0), COARSE, axis=1)[:h, :w]
+    out[reach] = full[reach]
+    return out
+
+
+def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), blacklist=()):
+    """Frontiers of grid (int array, row 0 = lowest y) seen from robot_xy, cheapest first.
+
+    origin: (x, y) [m] of cell (0, 0)'s corner. Returns [Frontier]."""
+    grid = np.asarray(grid)
+    ox, oy = origin
+    rc = (int((robot_xy[1] - oy) / resolution), int((robot_xy[0] - ox) / resolution))
+    reach = reachable_mask(grid, rc)
+    if not reach.any():
+        return []
+    unknown = grid == UNKNOWN
+    kernel4 = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
+    near_reach = cv2.dilate(reach.astype(np.uint8), kernel4).astype(bool)
+    frontier = unknown & near_reach
+    if not frontier.any():
+        return []
+    n, labels, stats, centroids = cv2.connectedComponentsWithStats(frontier.astype(np.uint8), connectivity=8)
+    # the reachable cells next to each frontier (where the robot can stand to see it)
+    edge = reach & cv2.dilate(frontier.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    edge_lab = cv2.dilate(labels.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int64)
+    er, ec = np.nonzero(edge)
+    dist = travel_distances(reach, rc, resolution)
+    out = []
+    for k in range(1, n):
+        size = stats[k, cv2.CC_STAT_AREA] * resolution
+        if size < params.min_frontier_size:
+            continue
+        cx, cy = centroids[k]   # (col, row)
+        mine = edge_lab[er, ec] == k
+        if not mine.any():
+            continue
+        r, c = er[mine], ec[mine]
+        j = np.argmin((c - cx) ** 2 + (r - cy) ** 2)
+        goal = (ox + (c[j] + 0.5) * resolution, oy + (r[j] + 0.5) * resolution)
+        if any(math.hypot(goal[0] - bx, goal[1] - by) < params.blacklist_radius for bx, by in blacklist):
+            continue
+        d = float(dist[r[j], c[j]])
+        if not math.isfinite(d):
+            continue
+        centroid = (ox + (cx + 0.5) * resolution, oy + (cy + 0.5) * resolution)
+        out.append(Frontier(size, centroid, goal, d, params.potential_scale * d - params.gain_scale * size))
+    out.sort(key=lambda f: f.cost)
+    return out
+
+
+def explored_share(known, reachable_free):
+    """Share of the reachable free cells (bool mask) that are known (bool mask, same
+    grid), a known cell counting for its 8 neighbours too (one cell of registration)."""
+    total = int(reachable_free.sum())
+    if total == 0:
+        return 0.0
+    near_known = cv2.dilate(known.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    return float((near_known & reachable_free).sum()) / total
+
+
+def exploration_coverage(world, world_res, world_origin, spawn, slam, slam_res, slam_origin):
+    """Share of the world's reachable free area that the SLAM map knows (free or occupied).
+
+    world: OccupancyGrid values of the true map (0 free, 100 occupied, -1 outside), row 0
+    = lowest y, cell (0, 0)'s corner at world_origin (x, y); spawn: (x, y, yaw) where the
+    robot started, i.e. the SLAM map frame's pose in the world; slam: the SLAM map's values
+    with slam_res and slam_origin (x, y) in its own frame. The reachable free area is the
+    4-connected free component holding the spawn point."""
+    world = np.asarray(world)
+    free = world == 0
+    labels, _ = ndimage.label(free)
+    sr = int((spawn[1] - world_origin[1]) / world_res)
+    sc = int((spawn[0] - world_origin[0]) / world_res)
+    if labels[sr, sc] == 0:
+        raise ValueError(f"the spawn point ({spawn[0]:.2f}, {spawn[1]:.2f}) is not in free space")
+    reach = labels == labels[sr, sc]
+    rr, cc = np.nonzero(reach)
+    wx = world_origin[0] + (cc + 0.5) * world_res - spawn[0]
+    wy = world_origin[1] + (rr + 0.5) * world_res - spawn[1]
+    c, s = math.cos(-spawn[2]), math.sin(-spawn[2])
+    mx, my = c * wx - s * wy, s * wx + c * wy
+    mc = np.floor((mx - slam_origin[0]) / slam_res).astype(np.int64)
+    mr = np.floor((my - slam_origin[1]) / slam_res).astype(np.int64)
+    slam = np.asarray(slam)
+    inside = (mr >= 0) & (mc >= 0) & (mr < slam.shape[0]) & (mc < slam.shape[1])
+    known_map = cv2.dilate((slam >= 0).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    seen = np.zeros(len(rr), bool)
+    seen[inside] = known_map[mr[inside], mc[inside]]
+    return float(seen.mean())
