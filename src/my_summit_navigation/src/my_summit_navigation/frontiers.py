@@ -14,7 +14,7 @@ On a costmap_2d-style grid (nav_msgs/OccupancyGrid values of move_base's global 
    at least min_frontier_size [m] long (cell count x resolution);
 4. for each, its goal: the reachable cell next to the frontier nearest to the frontier's
    centroid; its distance: the travel distance from the robot over reachable cells
-   (Dijkstra on a grid coarsened 4 x 4, scipy.sparse.csgraph);
+   (Dijkstra over the reachable cells, scipy.sparse.csgraph);
 5. cost = potential_scale * distance - gain_scale * size [m]; cheapest first. Goals near
    a blacklisted point (failed before) are left out.
 """
@@ -28,7 +28,6 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 UNKNOWN, INSCRIBED = -1, 99   # OccupancyGrid values of costmap_2d's NO_INFORMATION / INSCRIBED
-COARSE = 4                    # cells per side of one travel-distance cell
 
 
 @dataclass
@@ -54,59 +53,52 @@ class FrontierParams:
 
 
 def reachable_mask(grid, start_cell):
-    """Bool mask of cells the robot centre reaches from start_cell (row, col): the
-    4-connected component of known cells below the inscribed cost. Empty if the start
-    cell itself is blocked or unknown (then the nearest such cell within 0.5 m is used)."""
+    """(mask, start): the cells the robot centre reaches from start_cell (row, col), the
+    4-connected component of known cells below the inscribed cost, and the cell it was
+    grown from. When start_cell is blocked or unknown (the robot close to a wall) the
+    nearest passable cell within 10 cells is used; none: an empty mask."""
     passable = (grid >= 0) & (grid < INSCRIBED)
     r, c = start_cell
     if not (0 <= r < grid.shape[0] and 0 <= c < grid.shape[1]):
-        return np.zeros_like(passable)
+        return np.zeros_like(passable), (r, c)
     if not passable[r, c]:
         # The robot may stand in its own inscribed zone (close to a wall): start from the
         # nearest passable cell around it.
         r0, r1, c0, c1 = max(0, r - 10), min(grid.shape[0], r + 11), max(0, c - 10), min(grid.shape[1], c + 11)
         rr, cc = np.nonzero(passable[r0:r1, c0:c1])
         if len(rr) == 0:
-            return np.zeros_like(passable)
+            return np.zeros_like(passable), (r, c)
         k = np.argmin((rr + r0 - r) ** 2 + (cc + c0 - c) ** 2)
         r, c = rr[k] + r0, cc[k] + c0
     labels, _ = ndimage.label(passable)
-    return labels == labels[r, c]
+    return labels == labels[r, c], (int(r), int(c))
 
 
 def travel_distances(reach, start_cell, resolution):
-    """Travel distance [m] from start_cell to every cell of reach (np.inf elsewhere),
-    by Dijkstra over a grid coarsened COARSE x COARSE (a coarse cell is passable when any
-    of its cells is), 8-connected."""
+    """Travel distance [m] from start_cell to every cell of reach (np.inf elsewhere): Dijkstra
+    over the reachable cells, 8-connected (scipy.sparse.csgraph). Only reachable cells are
+    graph nodes, so even a one-cell wall separates its sides."""
     h, w = reach.shape
-    hc, wc = -(-h // COARSE), -(-w // COARSE)
-    pad = np.zeros((hc * COARSE, wc * COARSE), bool)
-    pad[:h, :w] = reach
-    coarse = pad.reshape(hc, COARSE, wc, COARSE).any(axis=(1, 3))
-    idx = -np.ones(coarse.shape, np.int64)
-    nodes = np.flatnonzero(coarse)
+    idx = -np.ones((h, w), np.int64)
+    nodes = np.flatnonzero(reach)
     idx.flat[nodes] = np.arange(len(nodes))
     rows, cols, wts = [], [], []
     for dr, dc, d in ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2)), (1, -1, math.sqrt(2))):
         # pairs (r, c) -> (r + dr, c + dc) with both inside the grid
-        ca0, ca1 = (0, wc - dc) if dc >= 0 else (-dc, wc)
-        a = idx[0:hc - dr, ca0:ca1]
-        b = idx[dr:hc, ca0 + dc:ca1 + dc]
+        ca0, ca1 = (0, w - dc) if dc >= 0 else (-dc, w)
+        a = idx[0:h - dr, ca0:ca1]
+        b = idx[dr:h, ca0 + dc:ca1 + dc]
         ok = (a >= 0) & (b >= 0)
         rows.append(a[ok])
         cols.append(b[ok])
         wts.append(np.full(int(ok.sum()), d))
     n = len(nodes)
-    graph = coo_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
-    src = idx[start_cell[0] // COARSE, start_cell[1] // COARSE]
     out = np.full((h, w), np.inf)
+    src = idx[start_cell[0], start_cell[1]] if 0 <= start_cell[0] < h and 0 <= start_cell[1] < w else -1
     if src < 0:
         return out
-    dist = dijkstra(graph, directed=False, indices=int(src)) * COARSE * resolution
-    dcoarse = np.full(coarse.shape, np.inf)
-    dcoarse.flat[nodes] = dist
-    full = np.repeat(np.repeat(dcoarse, COARSE, axis=0), COARSE, axis=1)[:h, :w]
-    out[reach] = full[reach]
+    graph = coo_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+    out.flat[nodes] = dijkstra(graph, directed=False, indices=int(src)) * resolution
     return out
 
 
@@ -117,7 +109,7 @@ def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), 
     grid = np.asarray(grid)
     ox, oy = origin
     rc = (int((robot_xy[1] - oy) / resolution), int((robot_xy[0] - ox) / resolution))
-    reach = reachable_mask(grid, rc)
+    reach, rc = reachable_mask(grid, rc)
     if not reach.any():
         return []
     unknown = grid == UNKNOWN

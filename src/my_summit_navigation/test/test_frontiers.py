@@ -1,0 +1,65 @@
+"""Unit tests of the frontier search (my_summit_navigation.frontiers)."""
+import math
+
+import numpy as np
+
+from my_summit_navigation import frontiers as fr
+
+
+def corridor_world():
+    """20 x 60 cells at 0.1 m: a corridor (rows 5..14) known up to column 30, unknown
+    beyond; walls (100) on rows 4 and 15."""
+    g = np.full((20, 60), -1, np.int16)
+    g[5:15, :30] = 0
+    g[4, :30] = 100
+    g[15, :30] = 100
+    return g
+
+
+def test_one_frontier_at_the_end_of_the_known_corridor():
+    g = corridor_world()
+    fs = fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=0.5))
+    assert len(fs) == 1
+    f = fs[0]
+    assert math.isclose(f.size, 1.0, abs_tol=0.11)                # the 10-cell opening
+    assert 2.9 <= f.goal[0] <= 3.0 and 0.5 <= f.goal[1] <= 1.5    # the last known column
+    assert 2.2 <= f.distance <= 3.0                                # travel from x 0.5 to x 2.95
+
+
+def test_small_frontiers_blacklist_and_no_reach():
+    g = corridor_world()
+    assert fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=1.5)) == []
+    fs = fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=0.5),
+                           blacklist=[(2.95, 1.0)])
+    assert fs == []
+    g[5:15, 10] = 100     # a wall across the corridor: the frontier is out of reach
+    assert fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=0.5)) == []
+
+
+def test_cheapest_first_by_distance_and_size():
+    g = np.full((40, 40), -1, np.int16)
+    g[10:30, 10:30] = 0                  # a known square room, open on every side
+    near = fr.find_frontiers(g, 0.1, (0.0, 0.0), (1.2, 2.0), fr.FrontierParams(min_frontier_size=0.5))
+    assert len(near) == 4 or len(near) == 1   # four sides touch at the corners -> one 8-connected ring
+    costs = [f.cost for f in near]
+    assert costs == sorted(costs)
+
+
+def test_travel_distance_goes_around_a_wall():
+    reach = np.ones((40, 40), bool)
+    reach[0:36, 20] = False              # a wall with a gap at the top rows 36..39
+    d = fr.travel_distances(reach, (2, 10), 0.1)
+    straight = 2.0
+    assert d[2, 30] > straight + 5.0     # around the wall: about 3.4 up, 1 across, 3.4 down
+    assert math.isfinite(d[2, 30]) and np.isinf(d[~reach]).all()
+
+
+def test_coverage_of_a_half_known_world():
+    world = np.full((20, 40), 100, np.int16)
+    world[1:19, 1:39] = 0
+    spawn = (1.0, 1.0, 0.0)
+    slam = np.full((20, 40), -1, np.int16)
+    slam[:, :20] = 0                       # the west half known, in the spawn-centred frame
+    cov = fr.exploration_coverage(world, 0.1, (0.0, 0.0), spawn, slam, 0.1, (-1.0, -1.0))
+    assert 0.5 <= cov <= 0.56
+    assert fr.exploration_coverage(world, 0.1, (0.0, 0.0), spawn, world, 0.1, (-1.0, -1.0)) == 1.0
