@@ -40,6 +40,7 @@ from my_summit_navigation import frontiers as fr
 SUCCEEDED, ABORTED = 3, 4
 MIN_PROGRESS = 0.1   # [m] closer to the goal that counts as progress
 SAME_GOAL = 0.5      # [m] a frontier goal this close to the active one keeps it
+EMPTY_ROUNDS = 4     # planning rounds in a row without a frontier before it is over
 
 
 class Explore:
@@ -61,6 +62,7 @@ class Explore:
         self.best_dist, self.best_time = math.inf, None
         self.sent = 0
         self.failed = 0             # goals aborted or without progress
+        self.empty_rounds = 0       # planning rounds in a row that found no frontier
         self.tf = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf)
         self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
@@ -153,8 +155,16 @@ class Explore:
         if not found:
             if self.goal is not None and self.goal_state is None:
                 return None   # let the last goal finish: it may uncover more
+            # Only over when it stays so for EMPTY_ROUNDS rounds: the costmap follows a map
+            # published every few seconds, and the robot may stand in a cell the latest
+            # update marked (then nothing is reachable from it for a moment).
+            self.empty_rounds += 1
+            if self.empty_rounds < EMPTY_ROUNDS:
+                rospy.loginfo(f"explore: no frontier found ({self.empty_rounds}/{EMPTY_ROUNDS}); looking again")
+                return None
             return ("no frontiers left" if self.failed == 0 else
                     f"no reachable frontier left ({self.failed} goals failed and blacklisted)")
+        self.empty_rounds = 0
         if self.goal is not None and any(math.hypot(f.goal[0] - self.goal[0], f.goal[1] - self.goal[1]) < SAME_GOAL
                                          for f in found[:3]):
             return None
