@@ -75,3 +75,26 @@ def test_distance_field_is_euclidean():
     assert d[4, 4] == 0
     assert d[4, 7] == pytest.approx(3.0, abs=1e-3)
     assert d[0, 0] == pytest.approx(math.hypot(4, 4), abs=1e-2)
+
+
+def test_ray_along_a_cell_boundary_ends(tmp_path):
+    """A ray along a cell boundary (origin y exactly on a row edge, dy = -1.2e-16 from
+    sin(-pi)) used to loop forever in willow-full: after a safe jump it landed in the row
+    across the boundary, whose next boundary was at t = -0.0. Run in a child process so a
+    regression fails on the timeout instead of hanging the suite."""
+    import subprocess
+    import sys
+    code = (
+        "import math, numpy as np\n"
+        "from summit_xl_sim import raycast\n"
+        "from summit_xl_sim.world import World\n"
+        f"w = World.from_yaml({WILLOW!r})\n"
+        "occ = w.walls\n"
+        "dist = w.dist\n"
+        "a = np.array([-math.pi, math.pi, -math.pi / 2, math.pi / 2, 0.0])\n"
+        "fast = raycast.cast_rays(occ, dist, 182.5, 185.0, a, 300.0)\n"
+        "ref = raycast.cast_rays_reference(occ, 182.5, 185.0, a, 300.0)\n"
+        "assert np.allclose(fast, ref, atol=1e-9), (fast, ref)\n"
+        "print('ok')\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "ok" in r.stdout, r.stderr[-2000:]

@@ -101,11 +101,15 @@ def _cast_one(occ, dist, ox, oy, dx, dy, tmax):
             ty = (iy - oy) / dy
         else:
             ty = math.inf
+        # t never moves back: a ray running exactly along a cell boundary (a tiny dx or
+        # dy from cos/sin of a multiple of 90 deg) can land, after a safe jump, in the
+        # cell on the other side of the boundary, whose "next boundary" then lies at
+        # -0.0; going back there would redo the same jump forever.
         if tx < ty:
-            t = tx
+            t = max(t, tx)
             ix += step_x
         else:
-            t = ty
+            t = max(t, ty)
             iy += step_y
         if t >= tmax:
             return tmax
