@@ -22,6 +22,10 @@ TEST_FILES = sorted(glob.glob(os.path.join(WS, "src", "*", "test", "*.test"))) +
 # Known to fail some runs, tracked in an open issue: still run and reported (xfail /
 # xpass in the summary), but not allowed to fail the whole suite. Keep this list short.
 KNOWN_FLAKY = {
+    # issue 7: two robots swapping places through one doorway pass about 2 runs in 4: the
+    # robot that waits can end up beside a box, where DWA's escape mode finds no command
+    # that does not lose clearance and it cannot back out (min_vel_x 0); move_base aborts.
+    "my_summit_navigation/multi_robot_crossing.test",
     # issue 5: DWA sometimes finds no valid command beside the dropped box and move_base
     # aborts after its recoveries (about 1 run in 4 here).
     "my_summit_path_planning/move_base_box.test",

@@ -42,6 +42,7 @@ from my_summit_navigation.multi_robot import robots_param  # noqa: E402
 
 MAP_YAML = os.path.join(PKG, "maps", "willow-full.yaml")
 LINE = re.compile(r"MULTI_ROBOT (.*?) text=")
+FIELD = re.compile(r"(\w+)=(\S+)")
 ROOM = (1.5, 15.0, 11.0, 19.8)     # [m] x0, x1, y0, y1: the lesson's room, where robots spawn
 SPACING = 1.5                      # [m] between spawn/goal grid points
 CLEARANCE = 0.6                    # [m] from any wall for a grid point
@@ -58,8 +59,18 @@ def lesson_run(localization, tmp):
     robots = {}
     for xml in glob.glob(os.path.join(tmp, "test_results", "my_summit_navigation", "rosunit-*.xml")):
         for m in LINE.finditer(open(xml, errors="replace").read()):
-            kv = dict(f.split("=", 1) for f in m.group(1).split())
-            robots[kv.pop("robot")] = {k: (v if k == "state" else float(v)) for k, v in kv.items()}
+            kv = dict(FIELD.findall(m.group(1)))
+            if "robot" not in kv:
+                print(f"lesson {localization}: unparsable MULTI_ROBOT line: {m.group(0)[:300]!r}", file=sys.stderr)
+                continue
+            fields = {}
+            for k, v in kv.items():
+                try:
+                    fields[k] = v if k in ("robot", "state") else float(v)
+                except ValueError:
+                    print(f"lesson {localization}: {k}={v!r} is not a number in {m.group(0)[:300]!r}",
+                          file=sys.stderr)
+            robots[fields.pop("robot")] = fields
     return {"passed": rc == 0 and "RESULT: SUCCESS" in out, "wall_s": round(wall, 1), "robots": robots}
 
 
