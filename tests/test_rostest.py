@@ -26,9 +26,6 @@ KNOWN_FLAKY = {
     # robot that waits can end up beside a box, where DWA's escape mode finds no command
     # that does not lose clearance and it cannot back out (min_vel_x 0); move_base aborts.
     "my_summit_navigation/multi_robot_crossing.test",
-    # issue 5: DWA sometimes finds no valid command beside the dropped box and move_base
-    # aborts after its recoveries (about 1 run in 4 here).
-    "my_summit_path_planning/move_base_box.test",
     # issue 5 again: its last part (the command-line client driving back to 0 0 0) has
     # stalled beside a hall pillar (DWA finds no valid command), about 1 run in 5.
     "my_summit_navigation/get_coordinates_bad_input.test",

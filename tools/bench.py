@@ -14,6 +14,11 @@ beside each time. Sections:
               simulated second, peak RSS
   amcl        the amcl core: update cost (5000 particles, 61 beams), tracking on the tour,
               global localization from 20 seeded poses, kidnapping (10 runs)
+  planning    the path-planning core (no ROS): NavFn plan time on willow-full-0.05 and its
+              path against the exact grid geodesic; one DWA control cycle; closed loop
+              (global + local costmaps, NavFn, DWA, simulator) over 50 seeded goal pairs on
+              the built-in world and 20 on willow-full-0.05: share reached, collisions,
+              median of time to goal / (planned path length / max_vel_x)
 
     make bench                      all sections
     make bench BENCH_ARGS="--only laser --runs 3"
@@ -172,15 +177,30 @@ def bench_amcl():
         return json.load(f)
 
 
+def bench_planning(runs):
+    """The path-planning core benchmark; timings are medians over `runs` repeats (the
+    closed loop is seeded and deterministic, so it runs once)."""
+    script = os.path.join(WS, "src", "my_summit_path_planning", "scripts", "bench_planning_core.py")
+    path = os.path.join(OUT, "bench_planning.json")
+    subprocess.run([sys.executable, script, "--repeats", str(runs), "--runs", "50", "--willow-runs", "20",
+                    "--json", path], check=True)
+    with open(path) as f:
+        res = json.load(f)
+    for key in ("closed_loop_builtin", "closed_loop_willow"):  # the per-run details stay in bench_planning.json
+        if key in res:
+            res[key] = {k: v for k, v in res[key].items() if k != "runs_detail"}
+    return res
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim, amcl (repeatable)")
+    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim, amcl, planning (repeatable)")
     ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
     args = ap.parse_args()
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
-    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl"])
+    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl", "planning"])
     os.makedirs(OUT, exist_ok=True)
     report = {"machine": {"cores": os.cpu_count(), "python": sys.version.split()[0]}}
     lines = ["| benchmark | figure | target | peak RSS [MB] |", "| --- | --- | --- | --- |"]
@@ -240,6 +260,27 @@ def main():
             k = res["kidnap"]
             lines.append(f"| amcl kidnapping, recovered within 15 m | {k['recovered']} of {k['runs']} | >= 8 of 10 "
                          f"| {k['peak_rss_mb']:.0f} |")
+    if "planning" in only:
+        res = bench_planning(args.runs)
+        report["planning"] = res
+        rss = f"{res['peak_rss_mb']:.0f}"
+        n = res["navfn_willow"]
+        lines.append(f"| NavFn plan on willow-full-0.05 ({n['pairs']} far pairs, median of {len(n['repeats_median_ms'])} "
+                     f"repeats): median [ms] | {n['median_ms']:.0f} wall / {n['cpu_median_ms']:.0f} CPU (repeats "
+                     f"{n['repeats_median_ms']}) | <= 100 | {rss} |")
+        lines.append(f"| ... path / exact grid geodesic: worst (median) | {n['length_ratio_max']:.3f} "
+                     f"({n['length_ratio_median']:.3f}) | <= 1.05 | - |")
+        d = res["dwa_cycle"]
+        lines.append(f"| DWA control cycle, {d['samples']} samples: median [ms] | {d['median_ms']:.2f} wall / "
+                     f"{d['cpu_median_ms']:.2f} CPU (repeats {d['repeats_median_ms']}) | <= 10 | - |")
+        for key, name in (("closed_loop_builtin", "built-in world"), ("closed_loop_willow", "willow-full-0.05")):
+            c = res.get(key)
+            if c is None:
+                continue
+            ratio = "-" if c["ratio_median"] is None else f"{c['ratio_median']:.2f}"
+            lines.append(f"| closed loop, {name}, {c['runs']} seeded pairs: reached / collisions / median time "
+                         f"ratio | {c['reached_share'] * 100:.0f}% / {c['collisions']} / {ratio} | >= 98% / 0 / "
+                         f"<= 1.5 | - |")
     path = os.path.join(OUT, "bench.json")
     with open(path + ".tmp", "w") as f:
         json.dump(report, f, indent=2)

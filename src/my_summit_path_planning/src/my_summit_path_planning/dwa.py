@@ -20,17 +20,30 @@ Structure after PythonRobotics' dynamic_window_approach.py, in the order it runs
    + 0.5 * goal_distance_bias * (goal distance of the end point + of the forward point)
    + occdist_scale * (max costmap cost along the trajectory)
    + twirling_scale * |vth|; a trajectory whose footprint meets a lethal or unknown
-   cell, whose centre enters an inscribed cell, that leaves the costmap, or that the
-   oscillation flags forbid is rejected.
+   cell before it could brake to a stop (Fox et al.'s admissible velocities: braking
+   distance + stop_time_buffer, not the whole sim_time), whose centre enters an
+   inscribed cell, that leaves the costmap, that the oscillation flags forbid, or that
+   is too fast to stop at the final goal is rejected; the "no valid trajectory" reason
+   counts the samples each of these rejected.
 5. ``best``: the cheapest valid sample; oscillation flags updated.
 
+Heading for the final goal, a trajectory is scored at its closest approach (it stops
+there): forward-point terms fade out at the goal, cells past the stop do not count, and
+all approaches within GOAL_DEAD_ZONE x xy_goal_tolerance count as arriving, the
+earliest winning (else DWA creeps up to the goal at ever lower speed).
+
 Goal handling (LatchedStopRotateController): within xy_goal_tolerance (latched with
-latch_xy_goal_tolerance) the robot stops within its acceleration limits, then rotates
-in place to the goal heading at a speed it can stop from, then reports the goal reached.
+latch_xy_goal_tolerance) the robot brakes within its acceleration limits while it
+starts turning (separate limits), rotates in place to the goal heading on the
+time-optimal profile (rotation_speed), then reports the goal reached once stopped.
 
 Footprint check, vectorized: the footprint is covered by a few circles
-(Footprint.covering_circles); a pose collides when a lethal/unknown cell centre lies
-within a circle's radius + half a cell (one distance-field lookup per circle).
+(Footprint.covering_circles); a pose is free when no lethal/unknown cell centre lies
+within a circle's radius + half a cell (one distance-field lookup per circle). Those
+axis circles are as wide as the robot and stick out ~0.25 m past its front and back,
+so near obstacles a finer grid of small circles (Footprint.grid_circles) decides
+(footprint_clearance): without it a robot 0.6 m from a table leg can neither turn
+nor creep forward, though its real corners clear the leg.
 
 Failure modes handled on purpose:
 - Start inside the inscribed zone (real DWA rejects every trajectory and the robot
@@ -44,6 +57,10 @@ Failure modes handled on purpose:
 - Wiggling at the goal: the xy latch, stopping first, and a rotation speed bounded by
   sqrt(2 * acc_lim_theta * |yaw error|) so the turn cannot overshoot.
 - Ghost obstacles: handled in the obstacle layer (layers.scan_to_observation).
+- Stuck facing an obstacle (issue 5's table stall): from rest the window holds no
+  in-place turn (acc_lim_theta x sim_period < min_vel_theta), so turns at
+  min_vel_theta are sampled; the footprint check is refined near obstacles so that
+  the axis circles' 0.25 m overhang does not forbid turning or creeping forward.
 """
 import dataclasses
 import math
@@ -65,7 +82,14 @@ NO_OBSTACLE_DIST = 1.0e6   # [m] distance field value when the costmap has no bl
 ESCAPE_GAIN = 0.01         # [m] clearance a backing-up trajectory must regain in escape mode
 REMAP_COLS = 4096          # poses per row of the cv2.remap maps
 OUTSIDE_DIST = -1.0e6      # [m] distance field value off the costmap (counts as a collision)
+# The axis circles stick out ~0.25 m past a rectangle's ends: poses whose axis-circle
+# clearance is below this are checked again with the footprint's finer grid circles.
+FINE_CHECK_BELOW = 0.3     # [m]
+FINE_MARGIN_CELLS = 1.0    # [cells] margin of the grid circles (the axis circles have half a cell)
 
+
+APPROACH_DECEL = 0.75     # x acc_lim_x: the deceleration the approach to the goal is planned with
+GOAL_DEAD_ZONE = 0.5       # x xy_goal_tolerance: closest approaches this near the goal all count as arriving
 
 # A latched xy goal is let go when the robot ends up farther than this many
 # xy_goal_tolerance from it (it latched while passing at speed and coasted on) [-].
@@ -185,7 +209,15 @@ def sample_velocities(cfg, window, holonomic):
     vmag = np.hypot(g[:, 0], g[:, 1])
     ok = vmag <= cfg.max_vel_trans + EPS
     too_slow = (vmag + EPS < cfg.min_vel_trans) & (np.abs(g[:, 2]) + EPS < cfg.min_vel_theta)
-    return g[ok & ~too_slow]
+    g = g[ok & ~too_slow]
+    if x0 <= EPS <= x1 + 2 * EPS and y0 <= EPS <= y1 + 2 * EPS and max(abs(t0), abs(t1)) + EPS < cfg.min_vel_theta:
+        # From rest the window (acc_lim_theta x sim_period) may not reach min_vel_theta:
+        # every in-place turn would be "too slow" and the robot could only drive forward;
+        # facing an obstacle it could never turn away. Turning at min_vel_theta is what
+        # the base accepts (rotate_recovery and the goal rotation command it as well).
+        turns = np.array([[0.0, 0.0, -cfg.min_vel_theta], [0.0, 0.0, cfg.min_vel_theta]])
+        g = np.vstack([g, turns]) if len(g) else turns
+    return g
 
 
 # -- 3. forward simulation ------------------------------------------------------------
@@ -264,6 +296,24 @@ def _end_direction(local, plan, back=0.3):
     return v / n if n > 0 else np.zeros(2)
 
 
+def rotation_speed(err, vth, acc, max_vel, min_vel, tolerance, dt):
+    """Signed in-place turn rate [rad/s] toward a heading err [rad] away (time-optimal).
+
+    base_local_planner's rotateToGoal turns at min(max_vel_theta, |err|) rad/s (a
+    proportional law: the last radian takes seconds) capped by sqrt(2 acc |err|); here
+    the cap alone, i.e. the bang-bang profile: accelerate at acc [rad/s^2] up to max_vel
+    [rad/s], then brake at acc so as to stop half a tolerance short of the heading. The
+    velocity command is held for one period dt [s] while the base ramps toward it, so
+    the braking curve is evaluated at the heading error left after that period; never
+    slower than min_vel [rad/s] outside the tolerance (the base would not move).
+    """
+    e = abs(err)
+    w = abs(vth) if vth * err > 0 else 0.0          # current speed toward the heading
+    left = max(0.0, e - 0.5 * tolerance - w * dt)   # what is left after this period
+    v = min(max_vel, math.sqrt(2.0 * acc * left), w + acc * dt)
+    return math.copysign(max(min_vel, v), err)
+
+
 # -- oscillation ----------------------------------------------------------------------
 class OscillationFlags:
     """base_local_planner's OscillationCostFunction: forbid reversing a motion just made."""
@@ -331,6 +381,88 @@ class OscillationFlags:
                 self.reset()
 
 
+def _lay_out(values, n, rows, cols):
+    flat = np.zeros(rows * cols)
+    flat[:n] = np.asarray(values, dtype=np.float64).ravel()
+    return flat.reshape(rows, cols)
+
+
+def _cover_clearance(field, costmap, x, y, th, centres, radius, margin):
+    """min over the circles of (interpolated distance at the circle centre - radius - margin [m])."""
+    res = costmap.resolution
+    n = x.size
+    # cv2.remap wants 2-D maps under 32767 a side: lay the poses out in rows of REMAP_COLS.
+    rows = max(1, -(-n // REMAP_COLS))
+    cols = min(n, REMAP_COLS) if n else 1
+    x, y, th = _lay_out(x, n, rows, cols), _lay_out(y, n, rows, cols), _lay_out(th, n, rows, cols)
+    clear = np.full(x.shape, np.inf, dtype=np.float32)
+    c, s = np.cos(th), np.sin(th)
+    for cx, cy in centres:
+        # Continuous cell-centre coordinates; cv2.remap interpolates bilinearly (in C)
+        # and answers OUTSIDE_DIST off the grid.
+        fx = ((x + cx * c - cy * s - costmap.origin_x) / res - 0.5).astype(np.float32)
+        fy = ((y + cx * s + cy * c - costmap.origin_y) / res - 0.5).astype(np.float32)
+        d = cv2.remap(field, fx, fy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                      borderValue=OUTSIDE_DIST)
+        np.minimum(clear, d, out=clear)
+    return clear.astype(np.float64).ravel()[:n] - (radius + margin)
+
+
+def _nearest_blocked(dist_m, costmap, pose):
+    """'; nearest obstacle cell 0.52 m away, 170 deg from the heading' (for a failure reason)."""
+    res = costmap.resolution
+    h, w = costmap.data.shape
+    r = int(math.ceil(1.0 / res))
+    cell = costmap.world_to_map(pose[0], pose[1])
+    if cell is None:
+        return ""
+    x0, y0 = max(0, cell[0] - r), max(0, cell[1] - r)
+    sub = costmap.data[y0:min(h, cell[1] + r + 1), x0:min(w, cell[0] + r + 1)]
+    ys, xs = np.nonzero((sub == LETHAL_OBSTACLE) | (sub == NO_INFORMATION))
+    if len(xs) == 0:
+        return "; no obstacle cell within 1 m"
+    wx = costmap.origin_x + (xs + x0 + 0.5) * res - pose[0]
+    wy = costmap.origin_y + (ys + y0 + 0.5) * res - pose[1]
+    k = int(np.argmin(np.hypot(wx, wy)))
+    bearing = math.degrees(wrap_angle(math.atan2(wy[k], wx[k]) - pose[2]))
+    return f"; nearest obstacle cell {math.hypot(wx[k], wy[k]):.2f} m away, {bearing:.0f} deg from the heading"
+
+
+def footprint_clearance(dist_m, costmap, x, y, th, covers):
+    """Clearance [m] (negative: collision) of footprint poses from blocked cells.
+
+    dist_m: (H, W) distance [m] of each cell centre to the nearest blocked (lethal or
+    unknown) cell centre; x, y, th: poses (any shape, same) in the costmap frame;
+    covers: ((centres (K, 2) [m], radius [m]), ...) circle sets that each cover the
+    footprint. A cover proves a pose free when every circle's centre is farther than
+    radius + a margin (half a cell for the first cover, FINE_MARGIN_CELLS for the
+    others) from any blocked cell, so the clearance of a pose is the best
+    of its covers' (min over circles of distance - radius - half a cell). The first
+    cover is evaluated everywhere; each next one only where the clearance so far is
+    below FINE_CHECK_BELOW (near obstacles: few poses). The distance field is
+    interpolated bilinearly: a nearest-cell lookup would be off by up to half a cell
+    diagonal and jump as the robot crosses cells.
+    """
+    shape = np.shape(x)
+    x = np.asarray(x, dtype=np.float64).ravel()
+    y = np.asarray(y, dtype=np.float64).ravel()
+    th = np.asarray(th, dtype=np.float64).ravel()
+    field = np.asarray(dist_m, dtype=np.float32)
+    (centres, radius), rest = covers[0], covers[1:]
+    clear = _cover_clearance(field, costmap, x, y, th, centres, radius, 0.5 * costmap.resolution)
+    for centres, radius in rest:
+        near = np.flatnonzero(clear < FINE_CHECK_BELOW)
+        if near.size == 0:
+            break
+        # The small circles pass through their cells' corners, right on the footprint's
+        # outline: a whole cell of margin (a blocked cell's square reaches half a diagonal
+        # past its centre, and the bilinear distance runs high next to a point obstacle).
+        fine = _cover_clearance(field, costmap, x[near], y[near], th[near], centres, radius,
+                                FINE_MARGIN_CELLS * costmap.resolution)
+        clear[near] = np.maximum(clear[near], fine)
+    return clear.reshape(shape)
+
+
 # -- the planner ----------------------------------------------------------------------
 class DWAPlanner:
     """The DWA local planner (nav_core's BaseLocalPlanner, without ROS).
@@ -349,6 +481,7 @@ class DWAPlanner:
             holonomic = config.holonomic_robot or (config.max_vel_y > 0 and config.vy_samples > 1)
         self.holonomic = bool(holonomic)
         self.circle_centres, self.circle_radius = footprint.covering_circles()
+        self.covers = (footprint.covering_circles(), footprint.grid_circles())
         self.oscillation = OscillationFlags(config.oscillation_reset_dist, config.oscillation_reset_angle)
         self.plan = None
         self.goal_yaw = 0.0
@@ -398,37 +531,10 @@ class DWAPlanner:
     def _footprint_clearance(self, dist_m, costmap, x, y, th):
         """Clearance [m] (negative: collision) of poses (any shape) from lethal/unknown cells.
 
-        The distance field (distance of each cell centre to the nearest blocked cell
-        centre) is interpolated bilinearly at each circle centre: a nearest-cell lookup
-        would be off by up to half a cell diagonal (3.5 cm at 5 cm cells) and jump as the
-        robot crosses cells, so that a robot near the limit could not move without its
-        clearance seeming to drop.
+        See footprint_clearance; the covers are the footprint's axis circles, refined by
+        its grid circles where the axis circles come closer than FINE_CHECK_BELOW.
         """
-        res = costmap.resolution
-        shape = np.shape(x)
-        n = int(np.prod(shape))
-        # cv2.remap wants 2-D maps under 32767 a side: lay the poses out in rows of REMAP_COLS.
-        rows = max(1, -(-n // REMAP_COLS))
-        cols = min(n, REMAP_COLS) if n else 1
-
-        def lay_out(v):
-            flat = np.zeros(rows * cols)
-            flat[:n] = np.asarray(v, dtype=np.float64).ravel()
-            return flat.reshape(rows, cols)
-
-        x, y, th = lay_out(x), lay_out(y), lay_out(th)
-        clear = np.full(x.shape, np.inf, dtype=np.float32)
-        c, s = np.cos(th), np.sin(th)
-        field = np.asarray(dist_m, dtype=np.float32)
-        for cx, cy in self.circle_centres:
-            # Continuous cell-centre coordinates; cv2.remap interpolates bilinearly (in C)
-            # and answers OUTSIDE_DIST off the grid.
-            fx = ((x + cx * c - cy * s - costmap.origin_x) / res - 0.5).astype(np.float32)
-            fy = ((y + cx * s + cy * c - costmap.origin_y) / res - 0.5).astype(np.float32)
-            d = cv2.remap(field, fx, fy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                          borderValue=OUTSIDE_DIST)
-            np.minimum(clear, d, out=clear)
-        return (clear.astype(np.float64).ravel()[:n] - (self.circle_radius + 0.5 * res)).reshape(shape)
+        return footprint_clearance(dist_m, costmap, x, y, th, self.covers)
 
     # -- main entry ---------------------------------------------------------------------
     def compute_velocity(self, pose, velocity, costmap):
@@ -492,6 +598,12 @@ class DWAPlanner:
         floor = min(c0, 0.0)
         if escape and self._escape_floor is not None:
             floor = max(floor, self._escape_floor)
+        if floor > c0 + ESCAPE_SLACK:
+            # The clearance fell below the floor by more than our own motion can lose
+            # (new obstacle cells marked, odometry drift): every sample starts below the
+            # floor and none would be valid, a standstill recoveries cannot end (they
+            # keep the cells near the robot). Start over from here.
+            floor = c0
         self._escape_floor = floor if escape else None
 
         # In escape mode the robot may also back up slowly: nose-in against a wall (or
@@ -508,33 +620,22 @@ class DWAPlanner:
         n_score = max(1, min(n_steps, int(round(cfg.sim_time / dt))))
         x, y, th = simulate(pose, samples, dt, n_steps)
 
-        # Obstacle cost: centre cells along the scored part; footprint along all of it.
+        # Obstacle cost: centre cells along the scored part.
         mx = np.floor((x - costmap.origin_x) / res).astype(np.int64)
         my = np.floor((y - costmap.origin_y) / res).astype(np.int64)
         inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
         centre = np.where(inside, data[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)], NO_INFORMATION)
         clearance = self._footprint_clearance(dist_obs, costmap, x, y, th)
-        if escape:
-            # Backing up only where it regains clearance (never drive away backwards).
-            valid = ((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN)) & \
-                    (clearance.min(axis=1) >= floor - ESCAPE_SLACK) & \
-                    (centre != LETHAL_OBSTACLE).all(axis=1) & inside.all(axis=1)
-            occ = centre[:, n_score - 1].astype(np.float64)
-            occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
-            occ -= 100.0 * np.minimum(clearance[:, n_score - 1], 0.0)  # prefer regaining clearance
-        else:
-            valid = (clearance.min(axis=1) >= 0.0) & \
-                    (centre < INSCRIBED_INFLATED_OBSTACLE).all(axis=1) & inside.all(axis=1)
-            occ = centre[:, :n_score].max(axis=1).astype(np.float64)
-        valid &= ~self.oscillation.forbidden(samples)
+        steps = np.arange(n_steps)[None, :]
 
-        # Path and goal distances of the end point and of the point in front of it.
         # When the local goal is the final goal, a trajectory is scored at its point of
         # closest approach to the goal (it would stop there), and samples too fast to
         # stop at the goal within acc_lim_x are rejected: the robot drives at speed
         # until it must brake, instead of DWA's slow exponential approach.
         final = len(local) == len(self.plan) - self._closest if cfg.prune_plan else \
             len(local) == len(self.plan)
+        rows = np.arange(len(samples))
+        too_fast = np.zeros(len(samples), dtype=bool)
         if final:
             # Closest approach measured along the path (plan length left + distance to
             # the plan), not straight: when the plan winds round a wall to a goal that is
@@ -547,12 +648,53 @@ class DWAPlanner:
                           + dist_path[sy.clip(0, h - 1), sx.clip(0, w - 1)], np.inf)
             dg = dg + 1e-3 * np.hypot(x[:, :n_score] - goal[0], y[:, :n_score] - goal[1])  # ties: nearer
             k = np.argmin(dg, axis=1)
-            rows = np.arange(len(samples))
             ex, ey, eth = x[rows, k], y[rows, k], th[rows, k]
-            v_stop = math.sqrt(2.0 * cfg.acc_lim_x * max(0.0, dist_goal - 0.5 * cfg.xy_goal_tolerance))
-            valid &= np.hypot(samples[:, 0], samples[:, 1]) <= max(v_stop, cfg.min_vel_trans) + EPS
+            # Planned with APPROACH_DECEL of acc_lim_x and one control period of travel
+            # held back: commands and odometry arrive late, and a robot braking at the
+            # very limit coasts past the tolerance.
+            v_now = math.hypot(velocity[0], velocity[1])
+            room = dist_goal - 0.5 * cfg.xy_goal_tolerance - v_now * cfg.sim_period
+            v_stop = math.sqrt(2.0 * APPROACH_DECEL * cfg.acc_lim_x * max(0.0, room))
+            too_fast = np.hypot(samples[:, 0], samples[:, 1]) > max(v_stop, cfg.min_vel_trans) + EPS
         else:
             ex, ey, eth = x[:, n_score - 1], y[:, n_score - 1], th[:, n_score - 1]
+
+        # The footprint must stay free over the whole simulated horizon (sim_time +
+        # stop_time_buffer), as in dwa_local_planner: the margin it leaves beyond the
+        # braking distance is what absorbs late commands and odometry on a loaded
+        # machine. Heading for the final goal the robot stops at its closest approach
+        # (the samples too fast for that are rejected above), so there the check ends
+        # at that point plus the braking time, stop_time_buffer and one control period:
+        # otherwise an arc that runs on past the goal into the wall behind it rejects
+        # the fast samples and the robot creeps up to the goal.
+        t_brake = np.maximum(np.hypot(samples[:, 0], samples[:, 1]) / (2.0 * max(cfg.acc_lim_x, EPS)),
+                             np.abs(samples[:, 2]) / (2.0 * max(cfg.acc_lim_theta, EPS)))
+        n_brake = np.ceil((t_brake + max(0.0, cfg.stop_time_buffer) + cfg.sim_period) / dt).astype(np.int64)
+        if final:
+            n_check = np.clip(k + 1 + n_brake, 1, n_steps)
+        else:
+            n_check = np.full(len(samples), n_steps)
+        checked = steps < n_check[:, None]
+        centre_checked = checked
+        leaves = (~inside & checked).any(axis=1)
+        if escape:
+            # Backing up only where it regains clearance (never drive away backwards).
+            collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN)) | \
+                (np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_SLACK) | \
+                ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1)
+            occ = centre[:, n_score - 1].astype(np.float64)
+            occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
+            occ -= 100.0 * np.minimum(clearance[:, n_score - 1], 0.0)  # prefer regaining clearance
+        else:
+            collides = (np.where(checked, clearance, np.inf).min(axis=1) < 0.0) | \
+                ((centre >= INSCRIBED_INFLATED_OBSTACLE) & inside & centre_checked).any(axis=1)
+            # Heading for the goal, the robot stops at the closest approach: cells the
+            # arc would cross after it do not count.
+            scored = steps[:, :n_score] <= (k[:, None] if final else n_score)
+            occ = np.where(inside[:, :n_score] & scored, centre[:, :n_score], 0).max(axis=1).astype(np.float64)
+        oscillates = self.oscillation.forbidden(samples)
+
+        # Path and goal distances of the end point and of the point in front of it.
         fx = ex + cfg.forward_point_distance * np.cos(eth)
         fy = ey + cfg.forward_point_distance * np.sin(eth)
         emx = np.floor((ex - costmap.origin_x) / res).astype(np.int64)
@@ -560,13 +702,22 @@ class DWAPlanner:
         fmx = np.floor((fx - costmap.origin_x) / res).astype(np.int64)
         fmy = np.floor((fy - costmap.origin_y) / res).astype(np.int64)
         end_in = (emx >= 0) & (emy >= 0) & (emx < w) & (emy < h)
-        valid &= end_in
+        leaves |= ~end_in
+        valid = ~(collides | leaves | oscillates | too_fast)
         path_end = dist_path[emy.clip(0, h - 1), emx.clip(0, w - 1)]
         path_fwd = dist_path[fmy.clip(0, h - 1), fmx.clip(0, w - 1)]
         # Goal distance as base_local_planner's MapGrid measures it: along the path
         # (plan length left from the nearest plan cell + distance to it), so rotating
         # in place never looks like progress and driving along the plan always does.
         goal_end = togo[emy.clip(0, h - 1), emx.clip(0, w - 1)] + path_end
+        if final:
+            # Every trajectory that passes within half the xy tolerance of the goal gets
+            # there equally well; among them the earliest arrival wins (below). Without
+            # this dead zone a slower sample whose arc happens to hit the goal point a
+            # centimetre more exactly wins, and the robot creeps up to the goal.
+            dead = GOAL_DEAD_ZONE * cfg.xy_goal_tolerance
+            path_end = np.maximum(path_end - dead, 0.0)
+            goal_end = np.maximum(goal_end - dead, 0.0)
         # dwa_planner's goal_front_costs: the forward point is pulled to the local goal
         # shifted forward along the plan's last direction, so pointing the nose at the
         # goal from afar scores no better than getting there.
@@ -574,6 +725,13 @@ class DWAPlanner:
         goal_fwd = np.hypot(fx - front_goal[0], fy - front_goal[1])
         near_goal = dist_goal <= NEAR_GOAL_FACTOR * cfg.forward_point_distance
         fwd_w = 0.0 if near_goal else 1.0
+        if final and cfg.forward_point_distance > 0:
+            # A trajectory that reaches the goal stops there: its forward point would
+            # stick out past the plan's end and charge it path distance, so stopping
+            # short would score better and the robot would creep up to the goal. The
+            # forward-point terms fade out as the scored point nears the goal.
+            fwd_w = fwd_w * np.clip(np.hypot(ex - goal[0], ey - goal[1])
+                                    / (NEAR_GOAL_FACTOR * cfg.forward_point_distance), 0.0, 1.0)
         cost = (0.5 * cfg.path_distance_bias * (path_end + fwd_w * path_fwd)
                 + 0.5 * cfg.goal_distance_bias * (goal_end + fwd_w * goal_fwd)
                 + cfg.occdist_scale * occ
@@ -584,9 +742,24 @@ class DWAPlanner:
         self._debug = dict(samples=samples, cost=cost, valid=valid, path_end=path_end, path_fwd=path_fwd,
                            goal_end=goal_end, goal_fwd=goal_fwd, occ=occ, final=final)
         n_valid = int(valid.sum())
+        braking = False
+        if n_valid == 0 and final and too_fast.any():
+            # Safe but every sample too fast to stop at the goal (it came into view late,
+            # or odometry jumped): brake as hard as the window allows along the best of
+            # those arcs, rather than give up and have move_base stop dead.
+            safe = ~(collides | leaves | oscillates)
+            if safe.any():
+                speed = np.hypot(samples[:, 0], samples[:, 1])
+                slowest = safe & (speed <= speed[safe].min() + EPS)
+                valid, n_valid, braking = slowest, int(slowest.sum()), True
         if n_valid == 0:
-            return DWAResult(ok=False, reason=f"no valid trajectory: all {len(samples)} samples "
-                             "collide, leave the local costmap or would oscillate",
+            # Which constraint rejected the samples (a sample may fail several).
+            counts = [f"{int(collides.sum())} collide" + (" (escape mode: would lose clearance)" if escape else ""),
+                      f"{int(leaves.sum())} leave the local costmap", f"{int(oscillates.sum())} would "
+                      "oscillate (reverse a motion just made)", f"{int(too_fast.sum())} too fast to stop at the goal"]
+            counts = [c for c, m in zip(counts, (collides, leaves, oscillates, too_fast)) if m.any()]
+            return DWAResult(ok=False, reason=f"no valid trajectory: of {len(samples)} samples "
+                             + ", ".join(counts) + _nearest_blocked(dist_obs, costmap, pose),
                              n_samples=len(samples), mode="escape" if escape else "dwa")
         cost = np.where(valid, cost, np.inf)
         best = int(np.argmin(cost))
@@ -630,20 +803,21 @@ class DWAPlanner:
             brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
             return DWAResult(cmd=(brake(velocity[0], cfg.acc_lim_x), brake(velocity[1], cfg.acc_lim_y),
                                   brake(velocity[2], cfg.acc_lim_theta)), mode="stop")
-        if not self.rotating_to_goal and not self._stopped(velocity):
-            # base_local_planner's stopWithAccLimits: brake as hard as allowed.
-            brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
-            cmd = (brake(velocity[0], cfg.acc_lim_x), brake(velocity[1], cfg.acc_lim_y),
-                   brake(velocity[2], cfg.acc_lim_theta))
-            return DWAResult(cmd=cmd, mode="stop")
-        # rotateToGoal: as fast as allowed, but slow enough to stop at the goal heading.
-        v = min(cfg.max_vel_theta, max(cfg.min_vel_theta, abs(err)))
-        v = min(max(v, abs(velocity[2]) - cfg.acc_lim_theta * dt), abs(velocity[2]) + cfg.acc_lim_theta * dt)
-        v = min(v, math.sqrt(2.0 * cfg.acc_lim_theta * abs(err)))
-        v = min(cfg.max_vel_theta, max(cfg.min_vel_theta, v))
-        vth = math.copysign(v, err)
-        self.rotating_to_goal = True  # LatchedStopRotateController: no more braking once turning
+        # Brake the translation as hard as allowed (stopWithAccLimits) and, at the same
+        # time, start the turn: vx and vth have separate acceleration limits, so turning
+        # while braking over the last centimetres costs no position and saves the
+        # stop-then-turn pause of LatchedStopRotateController.
+        brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
+        vx, vy = brake(velocity[0], cfg.acc_lim_x), brake(velocity[1], cfg.acc_lim_y)
+        vth = rotation_speed(err, velocity[2], cfg.acc_lim_theta, cfg.max_vel_theta,
+                             cfg.min_vel_theta, cfg.yaw_goal_tolerance, dt)
+        moving = abs(vx) > EPS or abs(vy) > EPS
+        self.rotating_to_goal = True  # LatchedStopRotateController: no more driving once here
         if not self._rotation_is_free(pose, vth, costmap):
+            if moving:
+                return DWAResult(cmd=(vx, vy, brake(velocity[2], cfg.acc_lim_theta)), mode="stop")
             return DWAResult(ok=False, reason="cannot rotate to the goal heading: the footprint "
                              "would hit an obstacle", mode="rotate")
+        if moving:
+            return DWAResult(cmd=(vx, vy, vth), mode="stop")
         return DWAResult(cmd=(0.0, 0.0, vth), mode="rotate")

@@ -156,12 +156,11 @@ class GridGraph:
                                     shape=(n, n))
 
     @property
-    def _edge_rows(self):
-        """(source node, target node) of every stored edge, (nnz,) intp each, CSR order (cached)."""
-        if getattr(self, "_rows", None) is None:
-            self._rows = (np.repeat(np.arange(self.matrix.shape[0], dtype=np.intp), np.diff(self.matrix.indptr)),
-                          self.matrix.indices.astype(np.intp))
-        return self._rows
+    def _row_counts(self):
+        """(n,) edges stored per node (cached)."""
+        if getattr(self, "_counts", None) is None:
+            self._counts = np.diff(self.matrix.indptr)
+        return self._counts
 
     def component_of(self, cell):
         """8-connected component label of flat cell index cell (-1 if not passable)."""
@@ -194,12 +193,13 @@ class GridGraph:
         if guide is not None:
             heur = np.maximum(heur, np.asarray(guide, dtype=np.float64).ravel()[self.cells])
         m = self.matrix
-        rows, cols = self._edge_rows
-        reduced = np.take(heur, cols)
-        reduced -= np.take(heur, rows)
+        # w' = w + h(target) - h(source): the targets' h gathered, the sources' h repeated
+        # over each CSR row (sequential, cheaper than a second gather).
+        reduced = np.take(heur, m.indices)
+        reduced -= np.repeat(heur, self._row_counts)
         reduced += m.data
         np.maximum(reduced, 0.0, out=reduced)  # rounding only: the heuristic is consistent
-        rm = sp.csr_matrix((reduced, m.indices, m.indptr), shape=m.shape)
+        rm = sp.csr_matrix((reduced, m.indices, m.indptr), shape=m.shape, copy=False)
         hs = heur[src]
         est = hs if cost_estimate is None or not math.isfinite(cost_estimate) else max(hs, cost_estimate)
         limit = max(BOUND_MARGIN * est - hs, self.min_cost)
@@ -494,6 +494,8 @@ class NavFn:
         self.config = config or NavfnConfig()
         self._cache_key = None
         self._cache_costs = None
+        self._cache_data = None        # the costmap costs the cached cell costs are of
+        self._cache_cell_cost = None
         self._graph = None
 
     def _graph_for(self, cell_cost):
@@ -548,7 +550,14 @@ class NavFn:
         data = costmap.data
         if data[sc[1], sc[0]] == LETHAL_OBSTACLE:
             return PlanResult(reason="start is in a lethal cell (the robot is in collision)")
-        cell_cost = navfn_costs(data, cfg.allow_unknown)
+        # navfn's cell costs, recomputed only when the costmap changed (replanning at
+        # planner_frequency on an unchanged costmap reuses them and the graph).
+        if self._cache_data is not None and self._cache_data.shape == data.shape \
+                and np.array_equal(self._cache_data, data):
+            cell_cost = self._cache_cell_cost
+        else:
+            cell_cost = navfn_costs(data, cfg.allow_unknown)
+            self._cache_data, self._cache_cell_cost = data.copy(), cell_cost
         if not np.isfinite(cell_cost[sc[1], sc[0]]):
             cell_cost = _open_start_region(data, cell_cost, sc)
         h, w = data.shape

@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
+from .dwa import footprint_clearance
 
 DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
@@ -133,28 +134,23 @@ class RotateRecovery:
         return RecoveryStep(cmd=(0.0, 0.0, vel))
 
     def _free(self, pose, angle, costmap):
+        """The footprint stays free of lethal/unknown cells over the next angle [rad] of turn
+        (checked every sim_granularity [m] of arc at the circumscribed radius, with DWA's
+        footprint_clearance: axis circles, refined by the grid circles near obstacles)."""
         data = costmap.data
         blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
         if not blocked.any():
             return True
         dist = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
                                      cv2.DIST_MASK_PRECISE) * costmap.resolution
-        centres, r = self.footprint.covering_circles()
         step = self.sim_granularity / max(self.footprint.circumscribed_radius, 1e-6)
         n = max(1, int(math.ceil(angle / step)))
-        res = costmap.resolution
-        h, w = data.shape
-        for th in pose[2] + angle * np.arange(1, n + 1) / n:
-            c, s = math.cos(th), math.sin(th)
-            px = pose[0] + centres[:, 0] * c - centres[:, 1] * s
-            py = pose[1] + centres[:, 0] * s + centres[:, 1] * c
-            mx = np.floor((px - costmap.origin_x) / res).astype(int)
-            my = np.floor((py - costmap.origin_y) / res).astype(int)
-            if ((mx < 0) | (my < 0) | (mx >= w) | (my >= h)).any():
-                return False
-            if (dist[my, mx] < r + 0.5 * res).any():
-                return False
-        return True
+        sign = 1.0 if angle >= 0 else -1.0
+        ths = pose[2] + sign * abs(angle) * np.arange(1, n + 1) / n
+        covers = (self.footprint.covering_circles(), self.footprint.grid_circles())
+        clear = footprint_clearance(dist, costmap, np.full(n, float(pose[0])), np.full(n, float(pose[1])),
+                                    ths, covers)
+        return bool((clear >= 0.0).all())
 
 
 def default_recovery_sequence(global_costmap, local_costmap, footprint, conservative_reset_dist=3.0,

@@ -1,0 +1,105 @@
+#!/usr/bin/python3
+"""rostest: a goal the robot cannot reach runs the recovery chain, then aborts with why.
+
+Four boxes (the simulator's add_box, world frame) ring the robot at its spawn pose with
+room to turn in place but no gap to leave by. A goal outside the ring: once the laser
+has put the ring into the costmaps there is no plan (or no valid command), and move_base
+must run its default recoveries in order (conservative_reset, rotate_recovery,
+aggressive_reset, rotate_recovery), as logged, then end ABORTED with move_base's
+text plus the last failure's reason. Zero collisions by ground truth.
+"""
+import math
+import sys
+import threading
+import unittest
+
+import rospy
+import rostest
+from geometry_msgs.msg import Pose2D
+from rosgraph_msgs.msg import Log
+
+from summit_xl_sim.srv import AddBox
+
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+import mbtest_util as mt  # noqa: E402
+from mbtest_util import lu  # noqa: E402
+
+DEFAULT_ORDER = ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+ABORT_TEXTS = ("Failed to find a valid plan. Even after executing recovery behaviors.",
+               "Failed to find a valid control. Even after executing recovery behaviors.",
+               "Robot is oscillating. Even after executing recovery behaviors.")
+
+
+class RosoutRecoveries:
+    """move_base's 'recovery behaviour i/n: name' lines from /rosout, in order."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.names = []
+        rospy.Subscriber("/rosout", Log, self._cb, queue_size=100)
+
+    def _cb(self, msg):
+        marker = "move_base: recovery behaviour "
+        if msg.name.endswith("move_base") and marker in msg.msg:
+            with self.lock:
+                self.names.append(msg.msg.split(marker, 1)[1].split(": ", 1)[1].strip())
+
+
+class MoveBaseRecovery(unittest.TestCase):
+    def test_recoveries_in_order_then_abort(self):
+        rospy.init_node("move_base_recovery_test")
+        goal = (rospy.get_param("~goal_x"), rospy.get_param("~goal_y"), rospy.get_param("~goal_yaw"))
+        inner = rospy.get_param("~ring_inner")
+        wall = rospy.get_param("~ring_wall")
+        max_sim = rospy.get_param("~max_sim_time")
+        m_in_w = lu.map_in_world()
+        truth = mt.Truth(m_in_w)
+        log = RosoutRecoveries()
+        lu.wait_clock()
+        c = mt.client()
+        rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
+        add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
+        x, y, yaw = truth.wait()
+        wx, wy = mt.map_to_world(m_in_w, x, y)
+        wyaw = yaw + m_in_w[2]
+        # The ring, in the robot's own axes: front, back, left, right walls, long enough
+        # to close the corners.
+        off = inner + wall / 2.0
+        length = 2.0 * (inner + wall)
+        for name, (dx, dy, along) in {"ring_front": (off, 0.0, False), "ring_back": (-off, 0.0, False),
+                                      "ring_left": (0.0, off, True), "ring_right": (0.0, -off, True)}.items():
+            cx = wx + dx * math.cos(wyaw) - dy * math.sin(wyaw)
+            cy = wy + dx * math.sin(wyaw) + dy * math.cos(wyaw)
+            sx, sy = (length, wall) if along else (wall, length)
+            resp = add_box(name, Pose2D(cx, cy, wyaw), sx, sy)
+            self.assertTrue(resp.success, resp.message)
+        lu.sleep_sim(1.0)   # a few scans of the ring
+        c.send_goal(mt.make_goal(*goal))
+        state, text = mt.wait_result(c, max_sim)
+        end = truth.pose
+        with log.lock:
+            names = list(log.names)
+        print(f"MOVE_BASE_RECOVERY state={state} recoveries={names} collisions={truth.collisions} "
+              f"moved_m={math.hypot(end[0] - x, end[1] - y):.2f} text={text!r}")
+        self.assertEqual(state, "ABORTED", text)
+        # move_base starts the chain over when a valid plan comes back meanwhile (as the
+        # real one does): each run of the chain is a prefix of the default order, and
+        # the last one, which ends in the abort, is the whole of it.
+        runs = []
+        for n in names:
+            if n == DEFAULT_ORDER[0] or not runs:
+                runs.append([])
+            runs[-1].append(n)
+        self.assertTrue(runs, "no recovery behaviour was logged")
+        for r in runs:
+            self.assertEqual(r, DEFAULT_ORDER[:len(r)], f"recoveries out of move_base's default order: {names}")
+        self.assertEqual(runs[-1], DEFAULT_ORDER, f"the last chain before the abort is not complete: {names}")
+        self.assertTrue(text.startswith(ABORT_TEXTS), f"abort text without move_base's reason: {text!r}")
+        self.assertIn("Last failure: ", text, "the abort text does not say what failed last")
+        self.assertGreater(len(text.split("Last failure: ", 1)[1]), 10)
+        self.assertEqual(truth.collisions, 0)
+        self.assertLess(math.hypot(end[0] - x, end[1] - y), inner, "the robot left the ring")
+
+
+if __name__ == "__main__":
+    rostest.rosrun("my_summit_path_planning", "move_base_recovery", MoveBaseRecovery, sys.argv)
