@@ -48,9 +48,13 @@ class PatrolBlocked(unittest.TestCase):
             x, y, _ = truth.pose
             return math.hypot(x - spots[label].x, y - spots[label].y) <= TOL
 
+        def stopped():
+            # the track only grows when the robot moved 2 cm: no entry for 1 s = standing
+            return bool(truth.track) and rospy.Time.now().to_sec() - truth.track[-1][0] > 1.0
+
         def round_done():
             for label in REACHABLE:
-                if near(label):
+                if near(label) and stopped():   # stood there (reached), not driving past
                     visited.add(label)
             return visited == set(REACHABLE)
         lu.wait_for(round_done, "the robot at table, room and turtle (a patrol round)", timeout_wall=450.0)
