@@ -19,6 +19,12 @@ beside each time. Sections:
               (global + local costmaps, NavFn, DWA, simulator) over 50 seeded goal pairs on
               the built-in world and 20 on willow-full-0.05: share reached, collisions,
               median of time to goal / (planned path length / max_vel_x)
+  explore     frontier exploration (explore.launch) of the built-in world from 5 seeded start
+              poses and of willow-full from one: explored share of the reachable free area,
+              collisions, simulated time, map precision / recall
+  multi_robot the multi-robot lesson (both robots' goals, amcl and fake_localization) and
+              the number of robots (amcl + move_base each) run at >= 1x real time
+  e2e         (only with --only e2e) the end-to-end rostest once per seed 1..10
 
     make bench                      all sections
     make bench BENCH_ARGS="--only laser --runs 3"
@@ -192,15 +198,50 @@ def bench_planning(runs):
     return res
 
 
+def _json_tail(out):
+    """The JSON document at the end of a script's output."""
+    start = out.rfind("\n{")
+    return json.loads(out[start + 1:] if start >= 0 else out)
+
+
+def bench_explore():
+    """bench_explore.py on the built-in world (5 seeded starts) and willow-full (1)."""
+    script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_explore.py")
+    res = {}
+    for world, runs in (("builtin", 5), ("willow", 1)):
+        path = os.path.join(OUT, f"bench_explore_{world}.json")
+        subprocess.run([sys.executable, script, "--world", world, "--runs", str(runs), "--json", path], check=True)
+        with open(path) as f:
+            res[world] = json.load(f)
+    return res
+
+
+def bench_multi_robot(runs):
+    script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_multi_robot.py")
+    out = subprocess.run([sys.executable, script, "--runs", str(runs), "--window", "30"], check=True,
+                         stdout=subprocess.PIPE, text=True).stdout
+    return _json_tail(out)
+
+
+def bench_e2e():
+    out = subprocess.run([sys.executable, os.path.join(WS, "tools", "e2e_seeds.py")] + [str(s) for s in range(1, 11)],
+                         stdout=subprocess.PIPE, text=True).stdout
+    print(out)
+    last = out.strip().splitlines()[-1]
+    return {"passed": int(last.split()[0]), "failed": int(last.split()[2]), "lines": out.strip().splitlines()}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim, amcl, planning (repeatable)")
+    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim, amcl, planning, explore, "
+                    "multi_robot, e2e (repeatable)")
     ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
     args = ap.parse_args()
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
-    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl", "planning"])
+    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl", "planning", "explore",
+                             "multi_robot"])
     os.makedirs(OUT, exist_ok=True)
     report = {"machine": {"cores": os.cpu_count(), "python": sys.version.split()[0]}}
     lines = ["| benchmark | figure | target | peak RSS [MB] |", "| --- | --- | --- | --- |"]
@@ -281,6 +322,35 @@ def main():
             lines.append(f"| closed loop, {name}, {c['runs']} seeded pairs: reached / collisions / median time "
                          f"ratio | {c['reached_share'] * 100:.0f}% / {c['collisions']} / {ratio} | >= 98% / 0 / "
                          f"<= 1.5 | - |")
+    if "explore" in only:
+        res = bench_explore()
+        report["explore"] = res
+        for world, r in res.items():
+            runs = r["runs"]
+            med = {k: statistics.median(x.get(k, 0.0) for x in runs) for k in ("precision", "recall", "sim_s")}
+            lines.append(f"| exploration of {world} from {len(runs)} seeded start(s): explored share min / median, "
+                         f"collisions, simulated time median [s] | {r['coverage_min']:.3f} / {r['coverage_median']:.3f}, "
+                         f"{r['collisions']}, {med['sim_s']:.0f} | >= {0.95 if world == 'builtin' else 0.90} each, 0 "
+                         f"| - |")
+            lines.append(f"| ... map precision / recall, median | {med['precision']:.3f} / {med['recall']:.3f} | "
+                         f">= 0.95 / >= 0.90 | - |")
+    if "multi_robot" in only:
+        res = bench_multi_robot(min(args.runs, 3))
+        report["multi_robot"] = res
+        for loc, r in res.get("lesson", {}).items():
+            lines.append(f"| multi-robot lesson ({loc}): runs passed, goals reached, collisions, median / max "
+                         f"xy error [m] | {r['runs_passed']}/{r['runs']}, {r['goals_reached']}/{r['goals']}, "
+                         f"{r['collisions']}, {r['median_xy_error_m']} / {r['max_xy_error_m']} | all, 0 | - |")
+        sc = res.get("scale")
+        if sc:
+            per = [row.get("cpu_cores_per_robot_median") for row in sc["rows"] if row.get("rtf", 0) >= sc["rtf_threshold"]]
+            lines.append(f"| robots (amcl + move_base each) at >= 1x real time on willow-full; cores per robot | "
+                         f"{sc['max_robots_at_real_time']}; {per[-1] if per else '-'} | report | - |")
+    if "e2e" in only:
+        res = bench_e2e()
+        report["e2e"] = res
+        lines.append(f"| end-to-end rostest (course project), seeds 1..10 | {res['passed']} of "
+                     f"{res['passed'] + res['failed']} | 10 of 10 | - |")
     path = os.path.join(OUT, "bench.json")
     with open(path + ".tmp", "w") as f:
         json.dump(report, f, indent=2)

@@ -230,8 +230,8 @@ def scale(max_robots, window, rtf_min):
                 row = json.loads(out.strip().splitlines()[-1])
             except (ValueError, IndexError):
                 row = {"robots": n, "rtf": 0.0, "error": out[-2000:]}
-            print(f"scale: {n} robots: real-time factor {row['rtf']}, {row['cpu_cores_per_robot_median']} "
-                  f"cores per robot, simulator {row['cpu_cores_sim']} cores", file=sys.stderr, flush=True)
+            print(f"scale: {n} robots: real-time factor {row['rtf']}, {row.get('cpu_cores_per_robot_median')} "
+                  f"cores per robot, simulator {row.get('cpu_cores_sim')} cores", file=sys.stderr, flush=True)
             rows.append(row)
             if row["rtf"] < rtf_min:
                 break

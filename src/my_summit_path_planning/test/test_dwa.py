@@ -287,3 +287,26 @@ def test_escape_floor_follows_a_clearance_drop(footprint):
     planner._escape_floor = 0.0    # a floor the robot's clearance is now well below
     r = planner.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
     assert r.ok and r.mode == "escape", r.reason
+
+
+def test_boxed_in_corner_backs_out(footprint):
+    """Field failure (patrol / course project, return to the hall): the robot coasted past
+    its goal into the corner by the hall's shelves: nose 0.27 m from a wall, a wall along
+    its left side 0.06 m away. No turn keeps the clearance, no forward move exists and
+    backing up parallel to the side wall regains none: escape mode rejected every sample
+    and move_base aborted after its recoveries. Now it backs out along the wall, without
+    touching it. (Turning round while the side wall is still within the corners' sweep is
+    not solved: the goal behind it is not reached here.)"""
+    front = 0.36 + 0.27
+    side = 0.31 + 0.06
+    # robot at (0, 0) facing -x: the wall ahead at x <= -front, the side wall (its left:
+    # -y when facing -x) at y <= -side from the front wall to 1.5 m behind the robot
+    m = local_costmap(footprint, [(-front - 0.3, -3.0, -front, 3.0), (-front, -side - 0.3, 1.5, -side)])
+    cfg = DWAConfig(**dict(CFG, xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, footprint)
+    from my_summit_path_planning.navfn import resample_path
+    planner.set_plan(resample_path(np.array([(0.0, 0.0), (1.0, 0.3), (2.5, 0.6)]), 0.025), 0.0)
+    poses, results = run(planner, m, footprint, (0.0, 0.0, math.pi), steps=300)
+    assert results[0].ok, results[0].reason
+    assert results[0].cmd[0] < 0.0           # it backs out first
+    assert max(p[0] for p in poses) > 1.0, poses[-1]   # out of the corner, no contact (run checks)

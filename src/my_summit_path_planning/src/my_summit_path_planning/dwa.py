@@ -704,6 +704,16 @@ class DWAPlanner:
         end_in = (emx >= 0) & (emy >= 0) & (emx < w) & (emy < h)
         leaves |= ~end_in
         valid = ~(collides | leaves | oscillates | too_fast)
+        if escape and not valid.any():
+            # Boxed in: nose to a wall, a wall along the side, no turn possible and no
+            # reversing regains clearance. Back out along the obstacle then, as long as the
+            # clearance does not drop; once clear, the robot can turn again.
+            keeps = ~((np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_SLACK) |
+                      ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1))
+            backing = (samples[:, 0] < 0.0) & keeps & ~(leaves | oscillates | too_fast)
+            if backing.any():
+                valid = backing
+                collides = collides & ~backing
         path_end = dist_path[emy.clip(0, h - 1), emx.clip(0, w - 1)]
         path_fwd = dist_path[fmy.clip(0, h - 1), fmx.clip(0, w - 1)]
         # Goal distance as base_local_planner's MapGrid measures it: along the path
