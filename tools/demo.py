@@ -41,7 +41,8 @@ OUT = os.path.join(WS, "output")
 # as poor in the table (the mapping issue's figures are 0.95 / 0.90).
 MAP_PRECISION_OK = 0.90
 MAP_RECALL_OK = 0.85
-SPEED = 3.0            # simulated seconds per wall second (SLAM needs ~0.15 CPU s per sim s)
+SPEED = 1.0            # simulated seconds per wall second: faster, the control loop starves on 2 cores and
+                       # the robot coasts past goals (the end-to-end rostest runs at 1x too)
 XY_TOL, YAW_TOL = 0.3, 0.3   # [m], [rad] the course's figure, by ground truth
 
 

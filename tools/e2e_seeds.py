@@ -25,9 +25,9 @@ TIMEOUT = 1500.0  # [s] wall, one run
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("seeds", nargs="*", type=int, default=list(range(1, 11)))
-    ap.add_argument("--speed", type=float, default=2.0, help="simulated seconds per wall second")
+    ap.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
     args = ap.parse_args()
-    out_dir = os.path.join(WS, "output", "e2e_seeds")
+    out_dir = os.path.join(WS, "output", "e2e_seeds" if args.speed == 1.0 else f"e2e_seeds_{args.speed:g}x")
     passed = 0
     for seed in args.seeds:
         home = os.path.join(out_dir, f"seed_{seed}")
