@@ -17,19 +17,17 @@ move_base); 2 bad arguments or an unusable spots file (nothing sent).
 import argparse
 import math
 import sys
-import time
 
 import actionlib
 import rospkg
 import rospy
-from my_summit_navigation.goals import move_base_goal
+from my_summit_navigation.goals import move_base_goal, wait_clock
 from move_base_msgs.msg import MoveBaseAction
 
 from my_summit_navigation import spot_goals as sg
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 POLL = 0.1            # [s] ROS time: how often the outcome is looked at
-CLOCK_POLL = 0.05     # [s] wall: poll of /clock before the first ROS-time wait
 CANCEL_FLUSH = 0.3    # [s] wall: time for the cancel message to go out before exiting
 
 
@@ -64,15 +62,6 @@ def resolve_target(args):
     return value, spot, frame_id
 
 
-def wait_clock(timeout):
-    """True once ROS time runs (under use_sim_time it is 0 until /clock starts, and a
-    ROS-time timeout started then would end at once); waits up to timeout [s] wall."""
-    end = time.monotonic() + timeout
-    while rospy.Time.now().is_zero():
-        if time.monotonic() > end or rospy.is_shutdown():
-            return False
-        time.sleep(CLOCK_POLL)
-    return True
 
 
 def make_goal(spot, frame_id):

@@ -23,7 +23,6 @@ Exit code: 0 the goal was reached; 1 it was not (aborted, preempted, timed out, 
 robot or no move_base); 2 bad arguments or parameters (nothing sent).
 """
 import sys
-import time
 
 import actionlib
 import rosgraph
@@ -32,23 +31,14 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction
 
 from my_summit_navigation import spot_goals as sg
-from my_summit_navigation.goals import move_base_goal
+from my_summit_navigation.goals import move_base_goal, wait_clock
 from my_summit_navigation.multi_robot import GoalError, goal_spot, robot_namespace
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 POLL = 0.1            # [s] ROS time: how often the outcome is looked at
-CLOCK_POLL = 0.05     # [s] wall: poll of /clock before the first ROS-time wait
 FEEDBACK_PERIOD = 5.0  # [s] ROS time between progress lines (debug level)
 
 
-def wait_clock(timeout):
-    """True once ROS time runs (0 under use_sim_time until /clock starts); timeout [s] wall."""
-    end = time.monotonic() + timeout
-    while rospy.Time.now().is_zero():
-        if time.monotonic() > end or rospy.is_shutdown():
-            return False
-        time.sleep(CLOCK_POLL)
-    return True
 
 
 def why_no_server(robot, action):
