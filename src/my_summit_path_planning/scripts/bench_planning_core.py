@@ -12,6 +12,7 @@
 
 Parameters come from the package's config/*.yaml. Usage:
   bench_planning_core.py [--runs 50] [--willow-runs 20] [--repeats 3] [--json PATH]
+                         [--max-vel-x 1.5]
 """
 import argparse
 import json
@@ -247,10 +248,14 @@ def main(argv=None):
     ap.add_argument("--only", type=int, nargs="*", help="simulate only these closed-loop run numbers")
     ap.add_argument("--trace", type=float, nargs="?", const=1.0, default=0.0,
                     help="print the controller state every this many simulated seconds (default 1)")
+    ap.add_argument("--max-vel-x", type=float,
+                    help="closed loop with this max_vel_x (and max_vel_trans) instead of the config's")
     ap.add_argument("--skip-navfn", action="store_true", help="skip the NavFn and DWA-cycle benchmarks")
     args = ap.parse_args(argv)
     params = load_move_base_params(CONFIG)
-    out = {}
+    if args.max_vel_x:
+        params.dwa.max_vel_x = params.dwa.max_vel_trans = args.max_vel_x
+    out = {"max_vel_x": params.dwa.max_vel_x}
     if not args.skip_navfn:
         # Timings: the median over each repeat, then the median of those (load on a
         # shared machine varies between repeats); lengths are the same every repeat.

@@ -310,3 +310,35 @@ def test_boxed_in_corner_backs_out(footprint):
     assert results[0].ok, results[0].reason
     assert results[0].cmd[0] < 0.0           # it backs out first
     assert max(p[0] for p in poses) > 1.0, poses[-1]   # out of the corner, no contact (run checks)
+
+
+def test_late_control_loop_brakes_in_time(footprint):
+    """A loaded machine: each command stays in force 0.4 s (8 periods), the robot tracks it
+    within its acceleration limits. Told the measured latency (move_base measures it), DWA
+    brakes early enough to stop at the goal, 0.7 m before a wall; planning for one nominal
+    period it coasted 0.3 m past the goal and turned circles there."""
+    hold, dt, goal_x = 0.4, 0.01, 2.5
+    m = local_costmap(footprint, [(3.2, -3.0, 3.3, 3.0)])
+    planner = DWAPlanner(DWAConfig(**dict(CFG, xy_goal_tolerance=0.10)), footprint)
+    planner.set_plan(np.column_stack([np.linspace(-3.0, goal_x, 111), np.zeros(111)]), 0.0)
+    planner.set_control_latency(hold)
+    assert planner.latency == pytest.approx(hold)
+    pose, vel, max_x = (-3.0, 0.0, 0.0), (1.5, 0.0, 0.0), -3.0
+    for _ in range(100):
+        r = planner.compute_velocity(pose, vel, m)
+        if r.goal_reached:
+            break
+        for _ in range(int(round(hold / dt))):
+            vx = vel[0] + float(np.clip(r.cmd[0] - vel[0], -2.5 * dt, 2.5 * dt))
+            vth = vel[2] + float(np.clip(r.cmd[2] - vel[2], -5.0 * dt, 5.0 * dt))
+            vel = (vx, 0.0, vth)
+            x, y, yaw = pose
+            pose = (x + vx * math.cos(yaw) * dt, y + vx * math.sin(yaw) * dt, yaw + vth * dt)
+            max_x = max(max_x, pose[0])
+            assert not footprint_hits(m, footprint, *pose)
+    assert r.goal_reached
+    assert max_x <= goal_x + 0.10
+    assert math.hypot(pose[0] - goal_x, pose[1]) <= 0.10
+    assert abs(pose[2]) <= 0.06 + 0.05
+    planner.set_control_latency(0.001)          # never below one control period
+    assert planner.latency == pytest.approx(planner.config.sim_period)

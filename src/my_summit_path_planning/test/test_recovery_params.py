@@ -65,7 +65,7 @@ def test_rotate_recovery_turns_once_and_stops_when_blocked(footprint):
 
 def test_config_files_load():
     p = load_move_base_params(CONFIG)
-    assert p.dwa.max_vel_x == 1.5 and p.dwa.vth_samples == 40
+    assert p.dwa.max_vel_x == 1.0 and p.dwa.vth_samples == 40
     assert p.navfn.allow_unknown is False
     g = build_costmap(p.global_costmap)
     loc = build_costmap(p.local_costmap)

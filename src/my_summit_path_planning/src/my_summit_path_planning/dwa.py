@@ -75,6 +75,7 @@ EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
 MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
 NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_point_distance of the goal
 PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
+MAX_LATENCY = 1.0          # [s] cap on the control latency braking plans for
 ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the goal sooner
 ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated in escape mode
 ESCAPE_VEL_X = 0.2         # [m/s] backing-up speed allowed in escape mode even when min_vel_x >= 0
@@ -490,6 +491,15 @@ class DWAPlanner:
         self.rotating_to_goal = False
         self._closest = 0
         self._escape_floor = None  # [m] escape mode's clearance floor (None: not escaping)
+        # [s] how long a command stays in force before the next one: one control period
+        # nominally; move_base sets the measured interval (set_control_latency) when its
+        # loop runs late on a loaded machine, so braking plans for the real delay.
+        self.latency = config.sim_period
+
+    def set_control_latency(self, seconds):
+        """The measured time between control cycles [s] (never less than one period)."""
+        if math.isfinite(seconds):
+            self.latency = min(MAX_LATENCY, max(self.config.sim_period, float(seconds)))
 
     def set_plan(self, plan, goal_yaw):
         """A new global plan: (N, 2) points [m] in the costmap frame, goal heading [rad]."""
@@ -649,11 +659,12 @@ class DWAPlanner:
             dg = dg + 1e-3 * np.hypot(x[:, :n_score] - goal[0], y[:, :n_score] - goal[1])  # ties: nearer
             k = np.argmin(dg, axis=1)
             ex, ey, eth = x[rows, k], y[rows, k], th[rows, k]
-            # Planned with APPROACH_DECEL of acc_lim_x and one control period of travel
-            # held back: commands and odometry arrive late, and a robot braking at the
-            # very limit coasts past the tolerance.
+            # Planned with APPROACH_DECEL of acc_lim_x and one control interval of travel
+            # held back (the measured one when the loop runs late, self.latency): commands
+            # and odometry arrive late, and a robot braking at the very limit coasts past
+            # the tolerance.
             v_now = math.hypot(velocity[0], velocity[1])
-            room = dist_goal - 0.5 * cfg.xy_goal_tolerance - v_now * cfg.sim_period
+            room = dist_goal - 0.5 * cfg.xy_goal_tolerance - v_now * self.latency
             v_stop = math.sqrt(2.0 * APPROACH_DECEL * cfg.acc_lim_x * max(0.0, room))
             too_fast = np.hypot(samples[:, 0], samples[:, 1]) > max(v_stop, cfg.min_vel_trans) + EPS
         else:
@@ -669,7 +680,7 @@ class DWAPlanner:
         # the fast samples and the robot creeps up to the goal.
         t_brake = np.maximum(np.hypot(samples[:, 0], samples[:, 1]) / (2.0 * max(cfg.acc_lim_x, EPS)),
                              np.abs(samples[:, 2]) / (2.0 * max(cfg.acc_lim_theta, EPS)))
-        n_brake = np.ceil((t_brake + max(0.0, cfg.stop_time_buffer) + cfg.sim_period) / dt).astype(np.int64)
+        n_brake = np.ceil((t_brake + max(0.0, cfg.stop_time_buffer) + self.latency) / dt).astype(np.int64)
         if final:
             n_check = np.clip(k + 1 + n_brake, 1, n_steps)
         else:
