@@ -19,9 +19,11 @@ beside each time. Sections:
               (global + local costmaps, NavFn, DWA, simulator) over 50 seeded goal pairs on
               the built-in world and 20 on willow-full-0.05: share reached, collisions,
               median of time to goal / (planned path length / max_vel_x)
-  explore     frontier exploration (explore.launch) of the built-in world from 5 seeded start
-              poses and of willow-full from one: explored share of the reachable free area,
+  explore     frontier exploration (explore.launch, real time) of the built-in world from 5
+              seeded start poses and of willow-full from one: explored share of the reachable free area,
               collisions, simulated time, map precision / recall
+  patrol      the patrol: 10 rounds over table, room, turtle with a box dropped on the route
+              twice: spots reached / skipped, collisions, the boxes kept clear of
   multi_robot the multi-robot lesson (both robots' goals, amcl and fake_localization) and
               the number of robots (amcl + move_base each) run at >= 1x real time
   e2e         (only with --only e2e) the end-to-end rostest once per seed 1..10
@@ -214,15 +216,27 @@ def _json_tail(out):
 
 
 def bench_explore():
-    """bench_explore.py on the built-in world (5 seeded starts) and willow-full (1)."""
+    """bench_explore.py on the built-in world (5 seeded starts) and willow-full (1), at
+    real time: slam_gmapping, move_base on the growing map and explore together need
+    about 1.5 cores, so faster than real time starves them on 2 cores."""
     script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_explore.py")
     res = {}
     for world, runs in (("builtin", 5), ("willow", 1)):
         path = os.path.join(OUT, f"bench_explore_{world}.json")
-        subprocess.run([sys.executable, script, "--world", world, "--runs", str(runs), "--json", path], check=True)
+        subprocess.run([sys.executable, script, "--world", world, "--runs", str(runs), "--speed", "1",
+                        "--json", path], check=True)
         with open(path) as f:
             res[world] = json.load(f)
     return res
+
+
+def bench_patrol():
+    """bench_patrol.py: 10 rounds over the three spots, a box on the route twice."""
+    script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_patrol.py")
+    path = os.path.join(OUT, "bench_patrol.json")
+    subprocess.run([sys.executable, script, "--rounds", "10", "--speed", "1", "--json", path])
+    with open(path) as f:
+        return json.load(f)
 
 
 def bench_multi_robot(runs):
@@ -243,14 +257,14 @@ def bench_e2e():
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim, amcl, planning, explore, "
-                    "multi_robot, e2e (repeatable)")
+                    "patrol, multi_robot, e2e (repeatable)")
     ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
     args = ap.parse_args()
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
     only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl", "planning", "explore",
-                             "multi_robot"])
+                             "patrol", "multi_robot"])
     os.makedirs(OUT, exist_ok=True)
     report = {"machine": {"cores": os.cpu_count(), "python": sys.version.split()[0]}}
     lines = ["| benchmark | figure | target | peak RSS [MB] |", "| --- | --- | --- | --- |"]
@@ -345,6 +359,14 @@ def main():
                          f"| - |")
             lines.append(f"| ... map precision / recall, median | {med['precision']:.3f} / {med['recall']:.3f} | "
                          f">= 0.95 / >= 0.90 | - |")
+    if "patrol" in only:
+        res = bench_patrol()
+        report["patrol"] = res
+        boxes = ", ".join(f"{b['min_dist']:.2f}" for b in res["boxes"]) or "none dropped"
+        lines.append(f"| patrol, {res['rounds']} rounds x 3 spots, a box on the route twice: reached / skipped, "
+                     f"collisions, robot centre to box [m] | {res['reached']} / {res['skipped']}, "
+                     f"{res['collisions']}, {boxes} | every spot reached or skipped, 0, > "
+                     f"{0.2 + 0.31 - 0.05:.2f} | - |")
     if "multi_robot" in only:
         res = bench_multi_robot(min(args.runs, 3))
         report["multi_robot"] = res

@@ -48,9 +48,15 @@ nor creep forward, though its real corners clear the leg.
 Failure modes handled on purpose:
 - Start inside the inscribed zone (real DWA rejects every trajectory and the robot
   never moves): the current pose's clearance c0 < 0 switches to escape mode, where
-  trajectories are valid if their clearance never drops below c0, and slow reversing
-  (down to -ESCAPE_VEL_X) is sampled too: a robot stopped nose-in or parallel against a
-  wall has no forward motion that does not cut into its clearance.
+  trajectories are valid if their clearance never drops below min(c0, 0) by more than
+  ESCAPE_TOL (the clearance along a wall of laser-marked cells wobbles by millimetres),
+  and slow reversing (down to -ESCAPE_VEL_X) is sampled too, where it regains clearance
+  or goes back along the plan: a robot stopped nose-in or parallel against a wall has no
+  forward motion that does not cut into its clearance, and a robot in a narrow gap whose
+  plan now lies behind it has no room to turn round.
+- Late control loop (a loaded machine, a simulator faster than real time): move_base
+  measures the interval between control cycles (set_control_latency) and braking, the
+  goal approach and the collision horizon plan for it instead of one nominal period.
 - Spinning / oscillating in place: base_local_planner's oscillation flags (a reversal
   of rotation, strafe or direction is forbidden until the robot has moved
   oscillation_reset_dist or turned oscillation_reset_angle).
@@ -77,10 +83,18 @@ NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_po
 PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
 MAX_LATENCY = 1.0          # [s] cap on the control latency braking plans for
 ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the goal sooner
-ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated in escape mode
+ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated by an in-place rotation out of the inscribed zone
+# [m] clearance loss tolerated in escape mode: the clearance measured along a motion
+# parallel to a wall of laser-marked cells (ragged by a cell here and there, laser noise
+# 1 cm) wobbles by a few millimetres, so with 1 mm every motion of a robot pressed
+# against a wall "lost clearance" and it stood there until move_base aborted (the
+# multi-robot crossing). A fifth of a cell: the marked cells reach 0-5 cm past the
+# surface that was hit, and the clearance keeps half a cell of margin besides.
+ESCAPE_TOL = 0.01
 ESCAPE_VEL_X = 0.2         # [m/s] backing-up speed allowed in escape mode even when min_vel_x >= 0
 NO_OBSTACLE_DIST = 1.0e6   # [m] distance field value when the costmap has no blocked cell
 ESCAPE_GAIN = 0.01         # [m] clearance a backing-up trajectory must regain in escape mode
+ALONG_PLAN_GAIN = 0.05     # [m] ... unless it gets this much nearer the goal along the plan
 REMAP_COLS = 4096          # poses per row of the cv2.remap maps
 OUTSIDE_DIST = -1.0e6      # [m] distance field value off the costmap (counts as a collision)
 # The axis circles stick out ~0.25 m past a rectangle's ends: poses whose axis-circle
@@ -409,6 +423,19 @@ def _cover_clearance(field, costmap, x, y, th, centres, radius, margin):
     return clear.astype(np.float64).ravel()[:n] - (radius + margin)
 
 
+def _along_plan(togo, dist_path, costmap, pose, ex, ey, gain=ALONG_PLAN_GAIN):
+    """(N,) bool: end points (ex, ey) [m] at least gain [m] nearer the goal along the
+    plan (plan length left + distance to the plan) than the pose."""
+    h, w = togo.shape
+    res = costmap.resolution
+
+    def along(px, py):
+        mx = np.clip(np.floor((px - costmap.origin_x) / res).astype(np.int64), 0, w - 1)
+        my = np.clip(np.floor((py - costmap.origin_y) / res).astype(np.int64), 0, h - 1)
+        return togo[my, mx] + dist_path[my, mx]
+    return along(np.asarray(ex), np.asarray(ey)) < along(np.array(pose[0]), np.array(pose[1])) - gain
+
+
 def _nearest_blocked(dist_m, costmap, pose):
     """'; nearest obstacle cell 0.52 m away, 170 deg from the heading' (for a failure reason)."""
     res = costmap.resolution
@@ -608,7 +635,7 @@ class DWAPlanner:
         floor = min(c0, 0.0)
         if escape and self._escape_floor is not None:
             floor = max(floor, self._escape_floor)
-        if floor > c0 + ESCAPE_SLACK:
+        if floor > c0 + ESCAPE_TOL:
             # The clearance fell below the floor by more than our own motion can lose
             # (new obstacle cells marked, odometry drift): every sample starts below the
             # floor and none would be valid, a standstill recoveries cannot end (they
@@ -689,9 +716,12 @@ class DWAPlanner:
         centre_checked = checked
         leaves = (~inside & checked).any(axis=1)
         if escape:
-            # Backing up only where it regains clearance (never drive away backwards).
-            collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN)) | \
-                (np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_SLACK) | \
+            # Backing up only where it regains clearance or goes back along the plan (a
+            # plan behind a robot in a narrow spot: no turn fits, forward leads away);
+            # never drive away backwards.
+            along = _along_plan(togo, dist_path, costmap, pose, x[:, n_score - 1], y[:, n_score - 1])
+            collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN) | along) | \
+                (np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_TOL) | \
                 ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1)
             occ = centre[:, n_score - 1].astype(np.float64)
             occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
@@ -719,7 +749,7 @@ class DWAPlanner:
             # Boxed in: nose to a wall, a wall along the side, no turn possible and no
             # reversing regains clearance. Back out along the obstacle then, as long as the
             # clearance does not drop; once clear, the robot can turn again.
-            keeps = ~((np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_SLACK) |
+            keeps = ~((np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_TOL) |
                       ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1))
             backing = (samples[:, 0] < 0.0) & keeps & ~(leaves | oscillates | too_fast)
             if backing.any():
