@@ -70,7 +70,7 @@ def one_run(world_name, pose, speed, out_dir):
         from summit_xl_sim.map_io import load_map
         from summit_xl_sim.world import World
         sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
-        from bench_slam_sim import TourRecorder
+        from bench_slam_sim import TourRecorder, write_png
         rospy.init_node("bench_explore", anonymous=True, disable_signals=True)
         rec = TourRecorder()
         st = {"done": False, "summary": None, "coll": 0}
@@ -100,7 +100,10 @@ def one_run(world_name, pose, speed, out_dir):
                                    m.info.resolution, (m.info.origin.position.x, m.info.origin.position.y))
         with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
             max_urange = SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
-        quality = rec.evaluate(World.from_yaml(world_yaml), max_urange)
+        world = World.from_yaml(world_yaml)
+        quality = rec.evaluate(world, max_urange)
+        # the map judged against the true walls, with the true and SLAM trajectories
+        write_png(quality, os.path.splitext(log)[0] + "_judged.png", world)
     return {"world": world_name, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
             "finished": bool(st["done"]), "summary": st["summary"], "sim_s": round(sim_t, 1),
             "wall_s": round(wall_t, 1), "collisions": int(st["coll"]), "ate_m": round(quality["ate_m"], 4),
