@@ -5,14 +5,13 @@ Asserts on ground truth (my_summit_mapping.evaluation, as bench_slam_sim.py): ma
 precision, recall of the walls the laser saw, ATE; and the ROS interface on the way:
 latched map_metadata, dynamic_map, ~entropy, tf map -> odom.
 
-Margins: the benchmark's targets are precision 0.95 / recall 0.90 / ATE 0.05 m. Since
-the odometry noise the filter assumes (srr/srt/str/stt) was matched to the simulator's
-drift, tours reach 0.998 / 0.998 / 0.024 m on the median of 5 runs at 3x, worst 0.951 /
-0.970 / 0.037 m (bench_slam_sim.py);
-offline, over 20 simulator seeds (slam_tour_offline.py), the worst was precision 0.948
-and ATE 0.032 m. Before that fix about one tour in five lost the right particle lineage
-(worst 0.77 / 0.81 / 0.091 m). The test's margins sit below the present tail, well above
-what a broken adapter gives (a wrong laser offset, beam order or frame: precision < 0.5).
+Margins: the benchmark's targets are precision 0.95 / recall 0.90 / ATE 0.05 m. With the
+odometry noise the filter assumes (srr/srt/str/stt) matched to the simulator's drift and
+the scan matcher's sigma 0.01, tours reach 0.999 / 0.999 / 0.005 m on the median of 5
+runs at 3x, worst 0.998 / 0.998 / 0.030 m (bench_slam_sim.py). Before those fixes about
+one tour in five lost the right particle lineage (worst 0.77 / 0.81 / 0.091 m). The
+test's margins sit below the present tail, well above what a broken adapter gives (a
+wrong laser offset, beam order or frame: precision < 0.5).
 """
 import os
 import sys
