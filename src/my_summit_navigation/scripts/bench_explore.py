@@ -129,7 +129,7 @@ def main(argv=None):
         return 0
     runs = []
     for i, pose in enumerate(start_poses(WORLDS[args.world], args.runs, args.seed)):
-        tmp = os.path.join(out_dir, f".run_{i}.json")
+        tmp = os.path.join(out_dir, f".run_{args.world}_{i}.json")
         if os.path.exists(tmp):
             os.remove(tmp)
         subprocess.run([sys.executable, os.path.abspath(__file__), "--world", args.world, "--speed", str(args.speed),
