@@ -6,7 +6,7 @@ import pytest
 
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
-from my_summit_path_planning.dwa import (DWAConfig, DWAPlanner, OscillationFlags, dynamic_window,
+from my_summit_path_planning.dwa import (DWAConfig, DWAPlanner, LatencyMeter, OscillationFlags, dynamic_window,
                                          sample_velocities, simulate)
 
 CFG = dict(max_vel_x=1.5, min_vel_x=0.0, max_vel_y=0.0, min_vel_y=0.0, max_vel_trans=1.5,
@@ -412,3 +412,16 @@ def test_pressed_against_a_ragged_wall_drives_on(footprint):
     failed = [res.reason for res in results if not res.ok]
     assert len(failed) <= 4, failed[:2]
     assert math.hypot(pose[0] - start[0], pose[1] - start[1]) > 0.02 or abs(pose[2] - start[2]) > 0.2
+
+
+def test_latency_meter_longest_recent_interval():
+    m = LatencyMeter(window=3, pause=2.0)
+    assert m.update(0.0) is None                      # one cycle: no interval yet
+    assert m.update(0.05) == pytest.approx(0.05)
+    assert m.update(0.45) == pytest.approx(0.40)      # a late cycle
+    m.update(0.50)
+    m.update(0.55)
+    assert m.update(0.60) == pytest.approx(0.05)      # the late one left the window
+    assert m.update(5.0) == pytest.approx(0.05)       # a pause is not latency
+    m.reset()
+    assert m.update(5.05) is None
