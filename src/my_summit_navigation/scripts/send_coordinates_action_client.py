@@ -62,8 +62,6 @@ def resolve_target(args):
     return value, spot, frame_id
 
 
-
-
 def make_goal(spot, frame_id):
     return move_base_goal(spot, frame_id, rospy.Time.now())
 

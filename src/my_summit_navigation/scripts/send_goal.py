@@ -39,8 +39,6 @@ POLL = 0.1            # [s] ROS time: how often the outcome is looked at
 FEEDBACK_PERIOD = 5.0  # [s] ROS time between progress lines (debug level)
 
 
-
-
 def why_no_server(robot, action):
     """Why /ROBOT/move_base is not there: no such robot namespace, or no move_base in it."""
     try:
