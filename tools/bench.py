@@ -339,7 +339,8 @@ def main():
                      f"{d['cpu_median_ms']:.2f} CPU (repeats {d['repeats_median_ms']}) | <= 10 | - |")
         for key, name, vx in (("closed_loop_builtin", "built-in world", res["max_vel_x"]),
                               ("closed_loop_willow", "willow-full-0.05", res["max_vel_x"]),
-                              ("closed_loop_builtin_fast", "built-in world", 1.5)):
+                              ("closed_loop_builtin_fast", "built-in world",
+                               res.get("closed_loop_builtin_fast", {}).get("max_vel_x"))):
             c = res.get(key)
             if c is None:
                 continue
@@ -366,7 +367,7 @@ def main():
         lines.append(f"| patrol, {res['rounds']} rounds x 3 spots, a box on the route twice: reached / skipped, "
                      f"collisions, robot centre to box [m] | {res['reached']} / {res['skipped']}, "
                      f"{res['collisions']}, {boxes} | every spot reached or skipped, 0, > "
-                     f"{0.2 + 0.31 - 0.05:.2f} | - |")
+                     f"{res['box_clearance_needed_m']:.2f} | - |")
     if "multi_robot" in only:
         res = bench_multi_robot(min(args.runs, 3))
         report["multi_robot"] = res

@@ -183,13 +183,14 @@ def run(rounds, speed, seed, log):
             counts[key] = int(m.group(1)) if m else None
     expected = rounds * len(LABELS)
     accounted = (counts.get("reached") or 0) + (counts.get("skipped") or 0)
-    box_ok = [b["min_dist"] > BOX_SIZE / 2 + HALF_WIDTH - 0.05 for b in boxes]
+    box_clear = BOX_SIZE / 2 + HALF_WIDTH - 0.05   # [m] robot centre to box centre, at least
+    box_ok = [b["min_dist"] > box_clear for b in boxes]
     ok = (text is not None and accounted == expected and not reached_far and collisions == 0
           and len(boxes) == len(BOX_FROM) and all(box_ok))
     return {"ok": bool(ok), "summary": text, "rounds": rounds, "spots_expected": expected,
             "reached": counts.get("reached"), "skipped": counts.get("skipped"), "retried": counts.get("retried"),
             "goals_succeeded_by_move_base": n_succeeded, "reached_off_spot": reached_far,
-            "collisions": int(collisions), "boxes": [{k: (round(v, 2) if isinstance(v, float) else v)
+            "collisions": int(collisions), "box_clearance_needed_m": round(box_clear, 2), "boxes": [{k: (round(v, 2) if isinstance(v, float) else v)
                                                        for k, v in b.items()} for b in boxes],
             "sim_s": round(sim_t, 1), "wall_s": round(wall, 1)}
 
