@@ -122,3 +122,21 @@ def test_occupancy_grid_grows_beyond_extent_and_entropy():
 def test_bad_resolution():
     with pytest.raises(ValueError):
         G.PatchGrid(0.0)
+
+
+def test_bresenham_float_division_is_exact():
+    """The float64 division in bresenham_cells gives the integer formula's cells exactly,
+    also at exact halves (d / n = 1/2, 3/2, ...) and far from the origin."""
+    rng = np.random.default_rng(3)
+    start = rng.integers(-5000, 5000, size=(3000, 2))
+    stop = start + rng.integers(-400, 401, size=(3000, 2))
+    stop[:500, 1] = start[:500, 1] + (stop[:500, 0] - start[:500, 0]) // 2   # halves
+    cells, beam = G.bresenham_cells(start, stop)
+    d = stop - start
+    n = np.abs(d).max(axis=1)
+    k = np.concatenate([np.arange(m + 1) for m in n])
+    nn = np.maximum(n, 1)[beam]
+    expected = start[beam] + (2 * k[:, None] * d[beam] + nn[:, None]) // (2 * nn[:, None])
+    assert_array_equal(cells, expected)
+    assert_array_equal(cells[np.r_[0, np.cumsum(n + 1)[:-1]]], start)     # lines start ...
+    assert_array_equal(cells[np.cumsum(n + 1) - 1], stop)                  # ... and end right

@@ -288,16 +288,23 @@ def bresenham_cells(start: np.ndarray, stop: np.ndarray):
     to stop (B, 2), vectorized: (cells (M, 2) int64 in line order, beam index (M,)).
 
     Along the major axis every cell is taken once; the minor coordinate of step k of n is
-    round(k * d / n) (halves rounded up), computed in integers so it is exact.
+    round(k * d / n) (halves rounded up) = floor((2 k d + n) / (2 n)). That is computed
+    with a float64 division, which is exact here: numerator and denominator are integers
+    far below 2^53 and IEEE division is correctly rounded, so an integer quotient comes out
+    exactly and any other stays at least 1 / (2 n) from the next integer (about twice as
+    fast as numpy's integer floor division).
     """
     d = stop - start
     n = np.abs(d).max(axis=1)                     # steps per line
     counts = n + 1
     beam = np.repeat(np.arange(len(start)), counts)
     first = np.cumsum(counts) - counts
-    k = np.arange(int(counts.sum())) - np.repeat(first, counts)   # step along each line
-    nn = np.maximum(n, 1)[beam]
-    cells = start[beam] + (2 * k[:, None] * d[beam] + nn[:, None]) // (2 * nn[:, None])
+    k2 = (2 * (np.arange(int(counts.sum())) - np.repeat(first, counts))).astype(np.float64)
+    n_rep = np.repeat(np.maximum(n, 1).astype(np.float64), counts)
+    cells = np.empty((len(k2), 2), np.int64)
+    for axis in range(2):
+        minor = np.floor((k2 * np.repeat(d[:, axis], counts) + n_rep) / (2.0 * n_rep))
+        cells[:, axis] = np.repeat(start[:, axis], counts) + minor.astype(np.int64)
     return cells, beam
 
 
