@@ -29,9 +29,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
 from bench_slam_sim import TourRecorder  # noqa: E402
 
-MIN_PRECISION = 0.75
-MIN_RECALL = 0.75
-MAX_ATE = 0.12         # [m]
+# Looser than the benchmark's targets (0.95, 0.90, 0.05 m). Five live tours at 4x with the
+# motion-model gate on scan-match corrections: ATE 0.004-0.007 m, precision >= 0.998.
+# Before it, 2 CI runs of 3 slipped 20 cm along the east corridor (ATE 0.078 m,
+# precision 0.82), which these margins catch.
+MIN_PRECISION = 0.90
+MIN_RECALL = 0.85
+MAX_ATE = 0.05         # [m]
 TOUR_TIMEOUT = 330.0   # [s wall] the tour is ~170 s simulated, 4x real time
 
 
