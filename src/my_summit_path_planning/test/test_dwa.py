@@ -30,6 +30,28 @@ def local_costmap(footprint, walls, size=140, res=0.05, origin=(-3.5, -3.5)):
     return m
 
 
+def recorded_costmap(footprint, cells):
+    """A field failure's local costmap: the lethal cells (dx, dy) the laser marked, from the
+    robot's cell (70, 70) of a 140 x 140 window at 0.05 m, inflated as in the course."""
+    m = local_costmap(footprint, [])
+    for dx, dy in cells:
+        m.data[70 + dy, 70 + dx] = cv.LETHAL_OBSTACLE
+    m.data[m.data != cv.LETHAL_OBSTACLE] = cv.FREE_SPACE
+    lc = LayeredCostmap.from_plugins([{"name": "inflation_layer", "type": "costmap_2d::InflationLayer"}],
+                                     {"inflation_layer": {"inflation_radius": 0.8, "cost_scaling_factor": 5.0}},
+                                     m, footprint)
+    lc.layers[0].update_costs(m, (0, 0, m.size_x, m.size_y))
+    return m
+
+
+def clearance_of(planner, m):
+    """pose -> the planner's footprint clearance [m] from m's lethal cells."""
+    import cv2
+    blocked = m.data == cv.LETHAL_OBSTACLE
+    dist = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * m.resolution
+    return lambda p: float(planner._footprint_clearance(dist, m, np.array(p[0]), np.array(p[1]), np.array(p[2])))
+
+
 def footprint_hits(m, footprint, x, y, yaw):
     poly = footprint.oriented(x, y, yaw)
     xs, ys = np.meshgrid(np.linspace(0, 1, 15), np.linspace(0, 1, 15))
@@ -376,17 +398,9 @@ def test_pressed_against_a_ragged_wall_drives_on(footprint):
     escape mode tolerates ESCAPE_TOL of clearance loss and may back up along the plan: the
     robot gets a valid command nearly every cycle and gets going, without cutting into the
     marked cells by more than that tolerance."""
-    import cv2
     from my_summit_path_planning.navfn import resample_path
     res, frac = 0.05, (0.389, 0.854)
-    m = local_costmap(footprint, [])
-    for dx, dy in CROSSING_CELLS:
-        m.data[70 + dy, 70 + dx] = cv.LETHAL_OBSTACLE
-    m.data[m.data != cv.LETHAL_OBSTACLE] = cv.FREE_SPACE
-    lc = LayeredCostmap.from_plugins([{"name": "inflation_layer", "type": "costmap_2d::InflationLayer"}],
-                                     {"inflation_layer": {"inflation_radius": 0.8, "cost_scaling_factor": 5.0}},
-                                     m, footprint)
-    lc.layers[0].update_costs(m, (0, 0, m.size_x, m.size_y))
+    m = recorded_costmap(footprint, CROSSING_CELLS)
     x0, y0 = -3.5 + (70 + frac[0]) * res, -3.5 + (70 + frac[1]) * res
     pose = (x0, y0, 1.2367)
     plan = np.array([(0.0, -0.01), (-0.05, -0.51), (0.43, -0.85), (0.99, -0.97), (1.5, -0.7), (1.9, -0.26),
@@ -396,9 +410,7 @@ def test_pressed_against_a_ragged_wall_drives_on(footprint):
                            xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
     planner = DWAPlanner(cfg, footprint)
     planner.set_plan(resample_path(plan, 0.025), 0.0)
-    blocked = m.data == cv.LETHAL_OBSTACLE
-    dist = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * res
-    clear = lambda p: float(planner._footprint_clearance(dist, m, np.array(p[0]), np.array(p[1]), np.array(p[2])))
+    clear = clearance_of(planner, m)
     c0 = clear(pose)
     assert 0.0 <= c0 < 0.01           # pressed against the clutter, not into it
     vel, results, start = (0.107, 0.0, -0.058), [], pose
@@ -412,6 +424,86 @@ def test_pressed_against_a_ragged_wall_drives_on(footprint):
     failed = [res.reason for res in results if not res.ok]
     assert len(failed) <= 4, failed[:2]
     assert math.hypot(pose[0] - start[0], pose[1] - start[1]) > 0.02 or abs(pose[2] - start[2]) > 0.2
+
+
+# The local costmap around robot_0 in the multi-robot crossing (rostest, willow-full, t 15 s),
+# cells (dx, dy) from the robot's cell as the laser marked them: robot_0, sent round the
+# chairs while robot_1 stood on its goal, has driven north into the dead-end pocket between
+# the hall's west wall (1 m to its left) and a row of chairs (0.35-0.5 m to its right); the
+# pocket's mouth is behind it to the south.
+POCKET_CELLS = [
+    (-22, -7), (-22, 13), (-21, -7), (-21, -4), (-21, 13), (-21, 14), (-21, 15), (-21, 16),
+    (-20, -29), (-20, -28), (-20, -27), (-20, -26), (-20, -25), (-20, -24), (-20, -23), (-20, -22),
+    (-20, -20), (-20, -17), (-20, -16), (-20, -15), (-20, -9), (-20, -8), (-20, -7), (-20, -4),
+    (-20, -3), (-20, 13), (-20, 14), (-20, 15), (-20, 16), (-19, -29), (-19, -28), (-19, -27),
+    (-19, -25), (-19, -24), (-19, -17), (-19, -9), (-19, -3), (-18, -32), (-18, -31), (-18, -30),
+    (-18, -29), (-18, -19), (-18, -18), (-18, -14), (-18, -12), (-18, -9), (-17, -29), (-16, -19),
+    (-16, -7), (-16, 15), (-16, 16), (-15, -19), (-15, -12), (-15, -11), (-15, -10), (-15, -8),
+    (-15, -7), (-15, -4), (-15, -3), (-15, -2), (-15, -1), (-15, 0), (-15, 1), (-15, 6), (-15, 7),
+    (-15, 8), (-15, 9), (-15, 15), (-15, 16), (-14, -21), (-14, -20), (-14, -15), (-14, -13),
+    (-14, -12), (-14, -11), (-14, -10), (-14, -9), (-14, -8), (-14, -7), (-14, -6), (-14, -5),
+    (-14, -4), (-14, -3), (-14, -2), (-14, -1), (-14, 0), (-14, 1), (-14, 2), (-14, 5), (-14, 6),
+    (-14, 7), (-14, 8), (-14, 9), (-14, 15), (-14, 16), (-13, -22), (-13, -21), (-13, -20),
+    (-13, -16), (-13, -15), (-13, -14), (-13, 1), (-13, 2), (-13, 3), (-13, 4), (-13, 5),
+    (-12, -22), (-12, -21), (-12, -17), (-12, -16), (-12, -15), (-12, -14), (-12, 1), (-12, 2),
+    (-12, 3), (-12, 4), (-12, 5), (-11, -21), (-10, -21), (-9, -21), (-8, -23), (-8, -22),
+    (-8, -21), (-8, -20), (-3, -21), (-3, -20), (-2, -31), (-2, -24), (-2, -21), (-1, -31),
+    (-1, -30), (-1, -21), (0, -31), (0, -23), (0, -22), (0, -21), (0, -20), (1, -22), (1, -21),
+    (2, -23), (2, -22), (2, -21), (2, -20), (12, -6), (12, -5), (13, -6), (13, -5), (15, -6),
+    (15, -4), (15, 7), (16, -8), (16, -7), (16, -6), (16, -4), (16, 6), (16, 7), (16, 8), (17, -8),
+    (17, -7), (17, -5), (17, -4), (18, -8), (18, -7), (18, -4), (18, 6), (18, 7), (19, -8),
+    (20, -8), (21, -8), (21, 6), (22, -8), (24, 7), (24, 8), (25, 6), (25, 15), (26, 4), (26, 5),
+    (26, 6), (26, 14), (26, 15), (26, 16), (27, 14), (28, 16), (29, 16), (34, -7), (35, -12),
+    (35, -11), (35, -10), (35, -9), (35, -8), (35, -7), (36, -13), (36, -7), (37, -7), (38, -6),
+    (39, -6), (40, -6)
+]
+
+
+def test_turns_round_in_a_dead_end_with_the_goal_beyond_it(footprint):
+    """Field failure (multi-robot crossing, about 1 run in 2): robot_0 had driven into a
+    dead-end pocket when its new plan came back out of the pocket's mouth, behind it, and
+    round the chairs to the goal, 2.5 m away beyond them. The whole plan lay in the local
+    costmap, so DWA scored every trajectory at its closest approach to the goal along the
+    plan: for a robot facing away from its plan that is the trajectory's start, so every
+    sample got the same path and goal costs, and was checked for collisions only over its
+    braking distance. The robot spun on the spot, or crept nose first into the chairs and
+    dithered there, until move_base aborted. Now only a trajectory that gets to the goal is
+    scored at its closest approach, the others at their end (plain DWA): the robot turns
+    round and drives out along its plan."""
+    from my_summit_path_planning.navfn import resample_path
+    res, frac = 0.05, (0.895, 0.869)
+    m = recorded_costmap(footprint, POCKET_CELLS)
+    x0, y0 = -3.5 + (70 + frac[0]) * res, -3.5 + (70 + frac[1]) * res
+    pose = (x0, y0, 1.8187)                     # facing north-north-west, into the pocket
+    plan = resample_path(np.array([(0.01, -0.05), (0.15, -0.51), (0.48, -0.81), (0.84, -1.07), (1.25, -1.22),
+                                   (1.7, -1.26), (2.12, -1.15), (2.47, -0.88), (2.63, -0.48), (2.72, -0.07),
+                                   (2.71, 0.38), (2.48, 0.72)]) + (x0, y0), 0.025)
+    # The crossing's DWA parameters (dwa_local_planner_params.yaml, max_vel_x 0.6).
+    cfg = DWAConfig(**dict(CFG, max_vel_x=0.6, max_vel_trans=0.6, xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, footprint)
+    planner.set_plan(plan, 3.1539)
+    clear = clearance_of(planner, m)
+    left = np.concatenate([np.cumsum(np.hypot(*np.diff(plan, axis=0).T)[::-1])[::-1], [0.0]])
+
+    def to_go(p):
+        """Plan length left from the plan point nearest p, plus the distance to it [m]."""
+        d = np.hypot(plan[:, 0] - p[0], plan[:, 1] - p[1])
+        return float(left[np.argmin(d)] + d.min())
+    c0, start = clear(pose), to_go(pose)
+    vel, results, turned, best = (0.0, 0.0, 0.0), [], 0.0, start
+    for _ in range(200):                        # 10 s
+        r = planner.compute_velocity(pose, vel, m)
+        results.append(r)
+        vel = r.cmd                             # (0, 0, 0) when not ok, as move_base stops the robot
+        x, y, yaw = pose
+        pose = (x + vel[0] * math.cos(yaw) * 0.05, y + vel[0] * math.sin(yaw) * 0.05, yaw + vel[2] * 0.05)
+        turned += abs(vel[2]) * 0.05
+        best = min(best, to_go(pose))
+        assert clear(pose) >= min(c0, 0.0) - 0.01 - 1e-3
+    failed = [res.reason for res in results if not res.ok]
+    assert len(failed) <= 10, failed[:2]
+    assert start - best > 1.5, (start, best, pose)   # out of the pocket and round the chairs
+    assert turned < 2.0 * math.pi                    # it turned round once, it did not spin
 
 
 def test_latency_meter_longest_recent_interval():

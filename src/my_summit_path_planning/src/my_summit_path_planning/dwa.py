@@ -27,10 +27,12 @@ Structure after PythonRobotics' dynamic_window_approach.py, in the order it runs
    counts the samples each of these rejected.
 5. ``best``: the cheapest valid sample; oscillation flags updated.
 
-Heading for the final goal, a trajectory is scored at its closest approach (it stops
-there): forward-point terms fade out at the goal, cells past the stop do not count, and
-all approaches within GOAL_DEAD_ZONE x xy_goal_tolerance count as arriving, the
-earliest winning (else DWA creeps up to the goal at ever lower speed).
+Heading for the final goal, a trajectory that gets to it (its closest approach lies
+within xy_goal_tolerance) is scored at its closest approach (it stops there):
+forward-point terms fade out at the goal, cells past the stop do not count, and all
+approaches within GOAL_DEAD_ZONE x xy_goal_tolerance count as arriving, the earliest
+winning (else DWA creeps up to the goal at ever lower speed). Every other trajectory is
+scored at its end, as in plain DWA.
 
 Goal handling (LatchedStopRotateController): within xy_goal_tolerance (latched with
 latch_xy_goal_tolerance) the robot brakes within its acceleration limits while it
@@ -43,7 +45,10 @@ within a circle's radius + half a cell (one distance-field lookup per circle). T
 axis circles are as wide as the robot and stick out ~0.25 m past its front and back,
 so near obstacles a finer grid of small circles (Footprint.grid_circles) decides
 (footprint_clearance): without it a robot 0.6 m from a table leg can neither turn
-nor creep forward, though its real corners clear the leg.
+nor creep forward, though its real corners clear the leg. The axis circles pass
+exactly through the footprint's corners, where half a cell of margin is short of a
+cell's square by up to 1 cm (its corner, diagonally): near the limit, a pose with a
+footprint corner inside a blocked cell is a collision whatever the circles say.
 
 Failure modes handled on purpose:
 - Start inside the inscribed zone (real DWA rejects every trajectory and the robot
@@ -62,6 +67,10 @@ Failure modes handled on purpose:
   oscillation_reset_dist or turned oscillation_reset_angle).
 - Wiggling at the goal: the xy latch, stopping first, and a rotation speed bounded by
   sqrt(2 * acc_lim_theta * |yaw error|) so the turn cannot overshoot.
+- Goal near as the crow flies, plan behind the robot (a dead end to turn round in):
+  only trajectories that get to the goal are scored at their closest approach; scored
+  there, every trajectory of a robot facing away from its plan was scored at its start,
+  all alike (see _dwa_step).
 - Ghost obstacles: handled in the obstacle layer (layers.scan_to_observation).
 - Stuck facing an obstacle (issue 5's table stall): from rest the window holds no
   in-place turn (acc_lim_theta x sim_period < min_vel_theta), so turns at
@@ -102,6 +111,9 @@ OUTSIDE_DIST = -1.0e6      # [m] distance field value off the costmap (counts as
 # clearance is below this are checked again with the footprint's finer grid circles.
 FINE_CHECK_BELOW = 0.3     # [m]
 FINE_MARGIN_CELLS = 1.0    # [cells] margin of the grid circles (the axis circles have half a cell)
+# [cells] how much farther than half a cell a blocked cell's square reaches (its corner,
+# diagonally): below this clearance the axis circles may miss a footprint corner in a cell.
+CORNER_SLACK_CELLS = math.sqrt(0.5) - 0.5
 
 
 APPROACH_DECEL = 0.75     # x acc_lim_x: the deceleration the approach to the goal is planned with
@@ -457,7 +469,23 @@ def _nearest_blocked(dist_m, costmap, pose):
     return f"; nearest obstacle cell {math.hypot(wx[k], wy[k]):.2f} m away, {bearing:.0f} deg from the heading"
 
 
-def footprint_clearance(dist_m, costmap, x, y, th, covers):
+def _corner_clearance(field, costmap, x, y, th, corners):
+    """(N,) minus how deep [m] the deepest footprint corner lies inside a blocked cell
+    (field <= 0), inf where no corner is in one; poses x, y, th (N,), corners (K, 2) [m]
+    in the robot frame."""
+    res = costmap.resolution
+    h, w = field.shape
+    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
+    fx = (x[:, None] + corners[:, 0] * c - corners[:, 1] * s - costmap.origin_x) / res  # (N, K) [cells]
+    fy = (y[:, None] + corners[:, 0] * s + corners[:, 1] * c - costmap.origin_y) / res
+    mx, my = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+    inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
+    blocked = inside & (field[my.clip(0, h - 1), mx.clip(0, w - 1)] <= 0.0)
+    depth = res * (0.5 - np.maximum(np.abs(fx - mx - 0.5), np.abs(fy - my - 0.5)))  # to the cell's nearest side
+    return np.where(blocked, -depth, np.inf).min(axis=1)
+
+
+def footprint_clearance(dist_m, costmap, x, y, th, covers, corners=None):
     """Clearance [m] (negative: collision) of footprint poses from blocked cells.
 
     dist_m: (H, W) distance [m] of each cell centre to the nearest blocked (lethal or
@@ -471,6 +499,10 @@ def footprint_clearance(dist_m, costmap, x, y, th, covers):
     below FINE_CHECK_BELOW (near obstacles: few poses). The distance field is
     interpolated bilinearly: a nearest-cell lookup would be off by up to half a cell
     diagonal and jump as the robot crosses cells.
+    corners (K, 2) [m] (optional, robot frame): the footprint's corners, where the first
+    cover's circles touch the outline and half a cell of margin falls short of a blocked
+    cell's square by up to CORNER_SLACK_CELLS: a pose whose clearance is below that and
+    that has a corner inside a blocked cell gets minus the corner's depth in it.
     """
     shape = np.shape(x)
     x = np.asarray(x, dtype=np.float64).ravel()
@@ -489,6 +521,11 @@ def footprint_clearance(dist_m, costmap, x, y, th, covers):
         fine = _cover_clearance(field, costmap, x[near], y[near], th[near], centres, radius,
                                 FINE_MARGIN_CELLS * costmap.resolution)
         clear[near] = np.maximum(clear[near], fine)
+    if corners is not None:
+        near = np.flatnonzero(clear < CORNER_SLACK_CELLS * costmap.resolution)
+        if near.size:
+            clear[near] = np.minimum(clear[near], _corner_clearance(
+                field, costmap, x[near], y[near], th[near], np.asarray(corners, dtype=np.float64)))
     return clear.reshape(shape)
 
 
@@ -535,6 +572,7 @@ class DWAPlanner:
         self.holonomic = bool(holonomic)
         self.circle_centres, self.circle_radius = footprint.covering_circles()
         self.covers = (footprint.covering_circles(), footprint.grid_circles())
+        self.corners = None if footprint.is_circle else footprint.polygon
         self.oscillation = OscillationFlags(config.oscillation_reset_dist, config.oscillation_reset_angle)
         self.plan = None
         self.goal_yaw = 0.0
@@ -594,9 +632,10 @@ class DWAPlanner:
         """Clearance [m] (negative: collision) of poses (any shape) from lethal/unknown cells.
 
         See footprint_clearance; the covers are the footprint's axis circles, refined by
-        its grid circles where the axis circles come closer than FINE_CHECK_BELOW.
+        its grid circles where the axis circles come closer than FINE_CHECK_BELOW, and
+        its corners checked where the circles come within CORNER_SLACK_CELLS.
         """
-        return footprint_clearance(dist_m, costmap, x, y, th, self.covers)
+        return footprint_clearance(dist_m, costmap, x, y, th, self.covers, self.corners)
 
     # -- main entry ---------------------------------------------------------------------
     def compute_velocity(self, pose, velocity, costmap):
@@ -710,6 +749,17 @@ class DWAPlanner:
                           + dist_path[sy.clip(0, h - 1), sx.clip(0, w - 1)], np.inf)
             dg = dg + 1e-3 * np.hypot(x[:, :n_score] - goal[0], y[:, :n_score] - goal[1])  # ties: nearer
             k = np.argmin(dg, axis=1)
+            # Only a trajectory that gets to the goal stops at its closest approach; any
+            # other drives on and is scored at its end, as in plain DWA. Scored at their
+            # closest approach, all trajectories of a robot that has to turn round first
+            # (its plan leads away behind it) were scored at their start, so every sample
+            # got the same path and goal costs and DWA had nothing to choose by, and were
+            # checked for collisions only over their braking distance (below): in the
+            # multi-robot crossing robot_0, in a dead-end pocket between a wall and
+            # chairs with its plan behind it and the goal 2 m away beyond the chairs,
+            # crept nose first into the chairs and dithered there until move_base aborted.
+            arrives = np.hypot(x[rows, k] - goal[0], y[rows, k] - goal[1]) <= cfg.xy_goal_tolerance
+            k = np.where(arrives, k, n_score - 1)
             ex, ey, eth = x[rows, k], y[rows, k], th[rows, k]
             # Planned with APPROACH_DECEL of acc_lim_x and one control interval of travel
             # held back (the measured one when the loop runs late, self.latency): commands
@@ -739,6 +789,12 @@ class DWAPlanner:
             n_check = np.full(len(samples), n_steps)
         checked = steps < n_check[:, None]
         centre_checked = checked
+        # The lowest clearance over the checked steps and at the pose the next control
+        # cycle starts from (self.latency on): the steps, sim_granularity apart, may
+        # straddle it, and the corner check is sharp.
+        nx, ny, nth = simulate(pose, samples, self.latency, 1)
+        min_clear = np.minimum(np.where(checked, clearance, np.inf).min(axis=1),
+                               self._footprint_clearance(dist_obs, costmap, nx[:, 0], ny[:, 0], nth[:, 0]))
         leaves = (~inside & checked).any(axis=1)
         if escape:
             # Backing up only where it regains clearance or goes back along the plan (a
@@ -746,13 +802,13 @@ class DWAPlanner:
             # never drive away backwards.
             along = _along_plan(togo, dist_path, costmap, pose, x[:, n_score - 1], y[:, n_score - 1])
             collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN) | along) | \
-                (np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_TOL) | \
+                (min_clear < floor - ESCAPE_TOL) | \
                 ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1)
             occ = centre[:, n_score - 1].astype(np.float64)
             occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
             occ -= 100.0 * np.minimum(clearance[:, n_score - 1], 0.0)  # prefer regaining clearance
         else:
-            collides = (np.where(checked, clearance, np.inf).min(axis=1) < 0.0) | \
+            collides = (min_clear < 0.0) | \
                 ((centre >= INSCRIBED_INFLATED_OBSTACLE) & inside & centre_checked).any(axis=1)
             # Heading for the goal, the robot stops at the closest approach: cells the
             # arc would cross after it do not count.
@@ -774,7 +830,7 @@ class DWAPlanner:
             # Boxed in: nose to a wall, a wall along the side, no turn possible and no
             # reversing regains clearance. Back out along the obstacle then, as long as the
             # clearance does not drop; once clear, the robot can turn again.
-            keeps = ~((np.where(checked, clearance, np.inf).min(axis=1) < floor - ESCAPE_TOL) |
+            keeps = ~((min_clear < floor - ESCAPE_TOL) |
                       ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1))
             backing = (samples[:, 0] < 0.0) & keeps & ~(leaves | oscillates | too_fast)
             if backing.any():

@@ -136,7 +136,8 @@ class RotateRecovery:
     def _free(self, pose, angle, costmap):
         """The footprint stays free of lethal/unknown cells over the next angle [rad] of turn
         (checked every sim_granularity [m] of arc at the circumscribed radius, with DWA's
-        footprint_clearance: axis circles, refined by the grid circles near obstacles)."""
+        footprint_clearance: axis circles, refined by the grid circles and the corners
+        near obstacles)."""
         data = costmap.data
         blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
         if not blocked.any():
@@ -148,8 +149,9 @@ class RotateRecovery:
         sign = 1.0 if angle >= 0 else -1.0
         ths = pose[2] + sign * abs(angle) * np.arange(1, n + 1) / n
         covers = (self.footprint.covering_circles(), self.footprint.grid_circles())
+        corners = None if self.footprint.is_circle else self.footprint.polygon
         clear = footprint_clearance(dist, costmap, np.full(n, float(pose[0])), np.full(n, float(pose[1])),
-                                    ths, covers)
+                                    ths, covers, corners)
         return bool((clear >= 0.0).all())
 
 
