@@ -79,6 +79,26 @@ def test_bad_yaml_names_field(tmp_path, text, needle):
     assert str(p) in str(e.value)
 
 
+def test_unknown_is_wall_field(tmp_path):
+    """unknown_is_wall (the simulator's field): the unknown cells of the map become solid
+    for the simulator's laser and collisions; without it they are open space."""
+    from summit_xl_sim.world import World
+    img = np.full((8, 40), 254, np.uint8)   # 20 m x 4 m at 0.5 m, free
+    img[:, 20:24] = 205                     # an unknown band across the middle, x 11-13 m
+    img[:, 36] = 0                          # a wall at x 19-19.5 m
+    open_world = World.from_yaml(write_map(tmp_path, img))
+    closed = World.from_yaml(write_map(tmp_path, img, name="c", unknown_is_wall="true"))
+    # From x 3 m looking along +x: through the band to the wall, or stopped by the band.
+    assert open_world.cast(3.0, 4.0, np.array([0.0]), 30.0)[0] == pytest.approx(16.0)
+    assert closed.cast(3.0, 4.0, np.array([0.0]), 30.0)[0] == pytest.approx(8.0)
+    inside_band = np.array([[12.0, 4.0]])
+    assert not open_world.points_hit_walls(inside_band)
+    assert closed.points_hit_walls(inside_band)
+    assert load_map(write_map(tmp_path, img, name="d")).source["unknown_is_wall"] is False
+    with pytest.raises(MapError, match="'unknown_is_wall' must be true or false"):
+        load_map(write_map(tmp_path, img, name="e", unknown_is_wall="maybe"))
+
+
 def test_negate_scale_raw(tmp_path):
     # One row of grey levels, top row of the image = highest y.
     img = np.array([[0, 50, 100, 150, 200, 254]], np.uint8)

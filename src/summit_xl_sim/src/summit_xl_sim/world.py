@@ -4,6 +4,14 @@ A world is any map_server YAML + image; its occupied cells (value 100 in trinary
 scale mode, >= 65 in raw mode) are walls. Unknown cells are open space: the laser passes
 through them, as it would through the unexplored parts of a real building's map.
 
+A world YAML may say ``unknown_is_wall: true`` (a field of ours; map_server ignores it):
+its unknown cells are then solid too, as the parts of a building a SLAM map never saw
+are furniture, wall interiors and the outside. A real map's walls are dashed where the
+laser saw through them (willow-full's are), so with open unknown cells the building
+leaks into the outside through every gap: a robot exploring it drives out and on across
+the whole map rectangle. ``unknown_is_wall`` makes such a map the closed building it
+shows.
+
 Geometry helpers answer in metres in the world frame, which is the frame of the map's
 origin (the ``map`` frame of the navigation stack when that map is loaded).
 """
@@ -12,7 +20,7 @@ import math
 import numpy as np
 
 from . import raycast
-from .map_io import OCCUPIED, load_map
+from .map_io import OCCUPIED, UNKNOWN, load_map
 
 RAW_WALL_VALUE = 65  # raw mode: cell values are 0..255 occupancy in percent-like units
 
@@ -54,6 +62,8 @@ class World:
             walls = grid.data.view(np.uint8) >= RAW_WALL_VALUE
         else:
             walls = grid.data == OCCUPIED
+        if grid.source.get("unknown_is_wall", False):
+            walls = walls | (grid.data == UNKNOWN)
         self.walls = np.ascontiguousarray(walls)
         self.dist = raycast.distance_field(self.walls)  # [cells]
         self.resolution = float(grid.resolution)
