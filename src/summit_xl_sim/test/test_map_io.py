@@ -1,4 +1,5 @@
 """map_io: map_server's YAML semantics on its own reference case and made-up images."""
+import math
 import os
 
 import cv2
@@ -79,24 +80,34 @@ def test_bad_yaml_names_field(tmp_path, text, needle):
     assert str(p) in str(e.value)
 
 
-def test_unknown_is_wall_field(tmp_path):
-    """unknown_is_wall (the simulator's field): the unknown cells of the map become solid
-    for the simulator's laser and collisions; without it they are open space."""
+def test_unknown_solid_beyond_field(tmp_path):
+    """unknown_solid_beyond (the simulator's field): unknown cells farther than it from
+    every free cell are solid for the simulator's laser and collisions; nearer ones, and
+    all of them without the field, are open space."""
     from summit_xl_sim.world import World
-    img = np.full((8, 40), 254, np.uint8)   # 20 m x 4 m at 0.5 m, free
-    img[:, 20:24] = 205                     # an unknown band across the middle, x 11-13 m
+    img = np.full((8, 40), 254, np.uint8)   # 20 m x 4 m at 0.5 m from (1, 2), free
+    img[:, 20:26] = 205                     # an unknown band across the middle, x 11-14 m
     img[:, 36] = 0                          # a wall at x 19-19.5 m
     open_world = World.from_yaml(write_map(tmp_path, img))
-    closed = World.from_yaml(write_map(tmp_path, img, name="c", unknown_is_wall="true"))
-    # From x 3 m looking along +x: through the band to the wall, or stopped by the band.
-    assert open_world.cast(3.0, 4.0, np.array([0.0]), 30.0)[0] == pytest.approx(16.0)
-    assert closed.cast(3.0, 4.0, np.array([0.0]), 30.0)[0] == pytest.approx(8.0)
-    inside_band = np.array([[12.0, 4.0]])
-    assert not open_world.points_hit_walls(inside_band)
-    assert closed.points_hit_walls(inside_band)
-    assert load_map(write_map(tmp_path, img, name="d")).source["unknown_is_wall"] is False
-    with pytest.raises(MapError, match="'unknown_is_wall' must be true or false"):
-        load_map(write_map(tmp_path, img, name="e", unknown_is_wall="maybe"))
+    closed = World.from_yaml(write_map(tmp_path, img, name="c", unknown_solid_beyond=1.2))
+    every = World.from_yaml(write_map(tmp_path, img, name="z", unknown_solid_beyond=0))
+    # The band's cell centres lie 0.5, 1.0, 1.5, 1.5, 1.0, 0.5 m from the free ones: with
+    # 1.2 m its middle two columns (x 12-13 m) are solid, the outer two on each side open.
+    ray = np.array([0.0])
+    assert open_world.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(16.0)
+    assert closed.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(9.0)
+    assert every.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(8.0)
+    # Looking back along -x from x 3 m: the map's edge cell (x 1-1.5 m) is a wall.
+    assert open_world.cast(3.0, 4.0, np.array([math.pi]), 30.0)[0] == pytest.approx(1.5)
+    assert open_world.points_hit_walls(np.array([[1.2, 4.0]]))
+    assert not open_world.points_hit_walls(np.array([[12.5, 4.0]]))
+    assert closed.points_hit_walls(np.array([[12.5, 4.0]]))
+    assert not closed.points_hit_walls(np.array([[11.7, 4.0]]))
+    assert every.points_hit_walls(np.array([[11.7, 4.0]]))
+    assert load_map(write_map(tmp_path, img, name="d")).source["unknown_solid_beyond"] is None
+    for bad in ("maybe", -1, "true"):
+        with pytest.raises(MapError, match="'unknown_solid_beyond' must be a distance >= 0"):
+            load_map(write_map(tmp_path, img, name="e", unknown_solid_beyond=bad))
 
 
 def test_negate_scale_raw(tmp_path):

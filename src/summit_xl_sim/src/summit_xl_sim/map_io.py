@@ -157,17 +157,22 @@ def read_map_yaml(path):
     mode = doc.get("mode", "trinary")
     if mode not in MODES:
         raise MapError(f"{path}: field 'mode' must be one of {', '.join(MODES)}, got {mode!r}")
-    # The simulator's own field (map_server ignores fields it does not know): the world's
-    # unknown cells are solid, not open (see summit_xl_sim.world).
-    unknown_is_wall = doc.get("unknown_is_wall", False)
-    if not isinstance(unknown_is_wall, bool):
-        raise MapError(f"{path}: field 'unknown_is_wall' must be true or false, got {unknown_is_wall!r}")
+    # The simulator's own field (map_server ignores fields it does not know): unknown
+    # cells farther than this [m] from every free cell are solid (see summit_xl_sim.world).
+    unknown_solid_beyond = doc.get("unknown_solid_beyond")
+    if unknown_solid_beyond is not None:
+        if isinstance(unknown_solid_beyond, bool) or not isinstance(unknown_solid_beyond, (int, float)) \
+                or not math.isfinite(unknown_solid_beyond) or unknown_solid_beyond < 0:
+            raise MapError(f"{path}: field 'unknown_solid_beyond' must be a distance >= 0 [m], "
+                           f"got {unknown_solid_beyond!r}")
+        unknown_solid_beyond = float(unknown_solid_beyond)
     if not os.path.isabs(image):
         image = os.path.join(os.path.dirname(os.path.abspath(path)), image)
     if not os.path.isfile(image):
         raise MapError(f"{path}: field 'image': image file {image} does not exist")
     return {"image": image, "resolution": resolution, "origin": origin, "negate": negate,
-            "occupied_thresh": occ, "free_thresh": free, "mode": mode, "unknown_is_wall": unknown_is_wall}
+            "occupied_thresh": occ, "free_thresh": free, "mode": mode,
+            "unknown_solid_beyond": unknown_solid_beyond}
 
 
 def image_to_grid(pixels, negate, occupied_thresh, free_thresh, mode):

@@ -1,26 +1,25 @@
 """The simulated world: static walls from a map_server map, plus boxes added at run time.
 
 A world is any map_server YAML + image; its occupied cells (value 100 in trinary or
-scale mode, >= 65 in raw mode) are walls. Unknown cells are open space: the laser passes
+scale mode, >= 65 in raw mode) are walls, and so is the map's outermost ring of cells (a
+robot cannot leave the map, and its laser sees where it would stop). Unknown cells are open space: the laser passes
 through them, as it would through the unexplored parts of a real building's map.
 
-A world YAML may say ``unknown_is_wall: true`` (a field of ours; map_server ignores it):
-its unknown cells are then solid too, as the parts of a building a SLAM map never saw
-are furniture, wall interiors and the outside. A real map's walls are dashed where the
-laser saw through them (willow-full's are), so with open unknown cells the building
-leaks into the outside through every gap: a robot exploring it drives out and on across
-the whole map rectangle. ``unknown_is_wall`` makes such a map the closed building it
-shows.
-
-Geometry helpers answer in metres in the world frame, which is the frame of the map's
-origin (the ``map`` frame of the navigation stack when that map is loaded).
+A world YAML may say ``unknown_solid_beyond: D`` (a field of ours; map_server ignores
+it): its unknown cells farther than D [m] from every free cell are then solid too. A
+real map's walls are dashed where the laser saw through them (willow-full's are), so with
+all unknown cells open the building leaks into the unknown outside through every gap: a
+robot exploring it drives out and on across the whole map rectangle, to its edge. The
+unknown outside and the unseen insides of furniture lie far from free cells and turn
+solid; the laser shadows inside the rooms (unknown fingers, narrow) stay open, and a band
+of D behind a gap is too narrow for the robot. D = 0: every unknown cell is solid.
 """
 import math
 
 import numpy as np
 
 from . import raycast
-from .map_io import OCCUPIED, UNKNOWN, load_map
+from .map_io import FREE, OCCUPIED, UNKNOWN, load_map
 
 RAW_WALL_VALUE = 65  # raw mode: cell values are 0..255 occupancy in percent-like units
 
@@ -62,8 +61,16 @@ class World:
             walls = grid.data.view(np.uint8) >= RAW_WALL_VALUE
         else:
             walls = grid.data == OCCUPIED
-        if grid.source.get("unknown_is_wall", False):
-            walls = walls | (grid.data == UNKNOWN)
+        beyond = grid.source.get("unknown_solid_beyond")
+        if beyond is not None:
+            to_free = raycast.distance_field(grid.data == FREE) * float(grid.resolution)  # [m], cell centres
+            walls = walls | ((grid.data == UNKNOWN) & (to_free > beyond))
+        # The map's outermost cells are walls: the robot cannot leave the map, so the laser
+        # must see where it stops (where free cells reach the edge, as on willow-full's
+        # west side, a robot drove into an edge its laser did not show).
+        walls = walls.copy()
+        walls[[0, -1], :] = True
+        walls[:, [0, -1]] = True
         self.walls = np.ascontiguousarray(walls)
         self.dist = raycast.distance_field(self.walls)  # [cells]
         self.resolution = float(grid.resolution)
