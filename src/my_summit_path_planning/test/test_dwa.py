@@ -30,18 +30,23 @@ def local_costmap(footprint, walls, size=140, res=0.05, origin=(-3.5, -3.5)):
     return m
 
 
-def recorded_costmap(footprint, cells):
-    """A field failure's local costmap: the lethal cells (dx, dy) the laser marked, from the
-    robot's cell (70, 70) of a 140 x 140 window at 0.05 m, inflated as in the course."""
-    m = local_costmap(footprint, [])
-    for dx, dy in cells:
-        m.data[70 + dy, 70 + dx] = cv.LETHAL_OBSTACLE
+def reinflated(m, footprint):
+    """m with every cell but the lethal ones freed and inflated again as in the course."""
     m.data[m.data != cv.LETHAL_OBSTACLE] = cv.FREE_SPACE
     lc = LayeredCostmap.from_plugins([{"name": "inflation_layer", "type": "costmap_2d::InflationLayer"}],
                                      {"inflation_layer": {"inflation_radius": 0.8, "cost_scaling_factor": 5.0}},
                                      m, footprint)
     lc.layers[0].update_costs(m, (0, 0, m.size_x, m.size_y))
     return m
+
+
+def recorded_costmap(footprint, cells):
+    """A field failure's local costmap: the lethal cells (dx, dy) the laser marked, from the
+    robot's cell (70, 70) of a 140 x 140 window at 0.05 m, inflated as in the course."""
+    m = local_costmap(footprint, [])
+    for dx, dy in cells:
+        m.data[70 + dy, 70 + dx] = cv.LETHAL_OBSTACLE
+    return reinflated(m, footprint)
 
 
 def clearance_of(planner, m):
@@ -197,12 +202,7 @@ def table_scene(footprint, robot_x, ghost=None):
     if ghost is not None:
         c = m.world_to_map(*ghost)
         m.data[c[1], c[0]] = cv.LETHAL_OBSTACLE
-    m.data[m.data != cv.LETHAL_OBSTACLE] = cv.FREE_SPACE
-    lc = LayeredCostmap.from_plugins([{"name": "inflation_layer", "type": "costmap_2d::InflationLayer"}],
-                                     {"inflation_layer": {"inflation_radius": 0.8, "cost_scaling_factor": 5.0}},
-                                     m, footprint)
-    lc.layers[0].update_costs(m, (0, 0, m.size_x, m.size_y))
-    return m
+    return reinflated(m, footprint)
 
 
 @pytest.mark.parametrize("robot_x", [15.8, 15.6, 15.55])
