@@ -11,7 +11,8 @@ its own occupancy grid (grid.PatchGrid, shared copy-on-write). Per laser scan:
      last processed scan (or temporalUpdate [s] passed), go on:
   3. scan-match each particle against its own map (scan_matcher.optimize) - the improved
      proposal; keep the odometry pose if the score is <= minimumScore or the correction
-     is implausible under the motion model (plausible_corrections);
+     is implausible under the motion model (plausible_corrections). A beam is matched
+     only to obstacle cells it can reach through known free space (DIRECTIONAL_MATCH);
   4. add the scan's log-likelihood at the new pose to the particle's log weight;
   5. normalize: w_i ~ exp((l_i - l_max) / (ogain * N)); Neff = 1 / sum(w_i^2);
   6. if Neff < resampleThreshold * N: low-variance resampling (maps shared, log weights
@@ -31,7 +32,10 @@ from .slam_config import SlamConfig
 
 RANGE_MAX_MARGIN = 0.01  # slam_gmapping's default maxRange = scan range_max - this [m]
 MATCH_GATE_SIGMAS = 5.0  # a scan-match correction beyond this many motion-model stds is rejected [-]
-MATCH_CHUNK_CELLS = 4_000_000  # field cells matched at once; 8 bytes each -> <= 32 MB of fields [cells]
+MATCH_CHUNK_CELLS = 4_000_000  # field cells matched at once (8 per window cell when directional);
+                               # 8 bytes each -> <= 32 MB of fields [cells]
+DIRECTIONAL_MATCH = True       # match a beam only to obstacle cells it reaches through known free space
+                               # (scan_matcher.facing_masks; False: gmapping's plain endpoint fields)
 
 
 def low_variance_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -228,14 +232,18 @@ class RbpfSlam:
         """
         c = self.config
         start = scan_matcher.endpoints(self.poses, laser, beams.local_xy)  # (N, K, 2)
+        octants = (scan_matcher.beam_octants(self.poses, laser, beams.angles)
+                   if DIRECTIONAL_MATCH else None)   # (N, K), fixed for this update
         for chunk in self._match_chunks(start):
             fields = scan_matcher.build_fields([self.maps[i] for i in chunk], start[chunk],
-                                               c.sigma, c.lsigma, c.kernelSize)
+                                               c.sigma, c.lsigma, c.kernelSize,
+                                               directional=DIRECTIONAL_MATCH)
+            octs = None if octants is None else octants[chunk]
             matched, scores = scan_matcher.optimize(fields, self.poses[chunk], laser, beams,
-                                                    c.lstep, c.astep, c.iterations)
+                                                    c.lstep, c.astep, c.iterations, octs)
             good = (scores > c.minimumScore) & self._plausible(self.poses[chunk], matched)
             self.poses[chunk[good]] = matched[good]
-            loglik, _ = scan_matcher.likelihood_and_score(fields, self.poses[chunk], laser, beams)
+            loglik, _ = scan_matcher.likelihood_and_score(fields, self.poses[chunk], laser, beams, octs)
             self.log_weights[chunk] += loglik
             self.log_weight_sums[chunk] += loglik
 
@@ -251,11 +259,12 @@ class RbpfSlam:
         chunks, current, cells = [], [], 0
         for i in range(self.config.particles):
             _, _, width, height = scan_matcher.field_window(start[i], self.config.delta)
-            if current and cells + width * height > MATCH_CHUNK_CELLS:
+            size = width * height * (scan_matcher.OCTANTS if DIRECTIONAL_MATCH else 1)
+            if current and cells + size > MATCH_CHUNK_CELLS:
                 chunks.append(np.array(current))
                 current, cells = [], 0
             current.append(i)
-            cells += width * height
+            cells += size
         chunks.append(np.array(current))
         return chunks
 
