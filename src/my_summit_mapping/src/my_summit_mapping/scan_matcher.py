@@ -17,10 +17,10 @@ through known free space, one field per beam direction octant.
 
 Speed: instead of searching the kernel per beam and per pose, each particle's map is
 turned once per update into two per-cell fields over the scan's window (eight of each
-when directional): the score s(c) and the log-likelihood l(c) of a hit at cell centre c. The nearest occupied cell within
-the square kernel is found with a few cv2.dilate calls (one per distinct distance in the
-kernel), which for gmapping's small kernels is cheaper than a full distance transform. A
-hit point between cell centres takes the bilinear interpolation of the four around it,
+when directional): the score s(c) and the log-likelihood l(c) of a hit at cell centre c.
+The nearest occupied cell within the square kernel is found with a few cv2.dilate calls
+(one per distinct distance in the kernel), which for gmapping's small kernels is cheaper
+than a full distance transform. A hit point between cell centres takes the bilinear interpolation of the four around it,
 which keeps the score continuous (gmapping gets sub-cell resolution from each cell's
 mean hit point instead). `score_reference` computes exactly this function with plain
 loops: the test oracle. The N particles' windows are packed into one flat array so all
