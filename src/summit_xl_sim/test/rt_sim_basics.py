@@ -30,14 +30,18 @@ class SimBasics(unittest.TestCase):
         cls.truth.wait()
 
     def drive(self, vx, wz, seconds):
-        """Publish a command at 20 Hz of sim time for `seconds`."""
+        """Publish a command at 20 Hz of sim time for `seconds`; returns the last ground
+        truth received while the commands still flowed."""
         t = Twist()
         t.linear.x, t.angular.z = vx, wz
         end = rospy.Time.now() + rospy.Duration.from_sec(seconds)
         rate = rospy.Rate(20)
+        moving = None
         while rospy.Time.now() < end:
             self.cmd.publish(t)
+            moving = self.truth.msg
             rate.sleep()
+        return moving
 
     def test_1_scan_shape_and_rate(self):
         msg = self.scan.wait()
@@ -65,10 +69,10 @@ class SimBasics(unittest.TestCase):
 
     def test_3_moves_as_commanded_then_watchdog_stops(self):
         p0 = self.truth.msg.pose.pose
-        self.drive(0.5, 0.0, 2.0)
-        sleep_sim(0.1)
-        moving = self.truth.msg
-        self.assertAlmostEqual(moving.twist.twist.linear.x, 0.5, delta=0.05)  # still running
+        # Read while the commands still flow: a fixed wait after the last one can outlast
+        # the 0.25 s watchdog when this test node is starved (CI: 0.0125 m/s, braking).
+        moving = self.drive(0.5, 0.0, 2.0)
+        self.assertAlmostEqual(moving.twist.twist.linear.x, 0.5, delta=0.05)  # running
         sleep_sim(0.8)  # > 0.25 s watchdog + 0.2 s of braking
         stopped = self.truth.msg
         self.assertEqual(stopped.twist.twist.linear.x, 0.0)

@@ -79,16 +79,16 @@ class SimWalls(unittest.TestCase):
         sleep_sim(0.2)
         res = self.add_box("crate", Pose2D(8.0, 7.0, 0.0), 0.5, 0.5)
         self.assertTrue(res.success, res.message)
-        sleep_sim(0.2)
-        self.assertAlmostEqual(self.scan.msg.ranges[540], 8.0 - 0.25 - 6.25, delta=0.05)
+        scan = self.scan.wait_newer(rospy.Time.now().to_sec() + 0.05)
+        self.assertAlmostEqual(scan.ranges[540], 8.0 - 0.25 - 6.25, delta=0.05)
         self.assertFalse(self.add_box("bad", Pose2D(8.0, 7.0, 0.0), -1.0, 0.5).success)
         self.assertFalse(self.add_box("onrobot", Pose2D(6.0, 7.0, 0.0), 0.3, 0.3).success)
         self.assertTrue(self.remove_box("crate").success)
         missing = self.remove_box("crate")
         self.assertFalse(missing.success)
         self.assertIn("no box named 'crate'", missing.message)
-        sleep_sim(0.2)
-        self.assertGreater(self.scan.msg.ranges[540], 3.0)
+        scan = self.scan.wait_newer(rospy.Time.now().to_sec() + 0.05)
+        self.assertGreater(scan.ranges[540], 3.0)
 
 
 if __name__ == "__main__":

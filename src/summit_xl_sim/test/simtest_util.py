@@ -33,6 +33,21 @@ class Latest:
             n = sum(1 for t in self.stamps if t0 <= t < t1)
         return n / (t1 - t0)
 
+    def wait_newer(self, t, timeout_wall=30.0):
+        """Block until a message stamped after simulated time t [s] arrives (one that shows
+        what changed at t, however late this loaded machine delivers it); returns it."""
+        import time
+        end = time.monotonic() + timeout_wall
+        while True:
+            with self.lock:
+                msg = self.msg
+            if msg is not None and msg.header.stamp.to_sec() > t:
+                return msg
+            if time.monotonic() > end:
+                raise AssertionError(f"no message on {self.sub.name} stamped after {t:.2f} s "
+                                     f"within {timeout_wall} s")
+            time.sleep(0.01)
+
     def wait(self, timeout_wall=30.0):
         """Block until a first message arrives; AssertionError on timeout."""
         import time
