@@ -2,8 +2,9 @@
 
 A world is any map_server YAML + image; its occupied cells (value 100 in trinary or
 scale mode, >= 65 in raw mode) are walls, and so is the map's outermost ring of cells (a
-robot cannot leave the map, and its laser sees where it would stop). Unknown cells are open space: the laser passes
-through them, as it would through the unexplored parts of a real building's map.
+robot cannot leave the map, and its laser sees where it would stop). Unknown cells are
+open space: the laser passes through them, as it would through the unexplored parts of a
+real building's map.
 
 A world YAML may say ``unknown_solid_beyond: D`` (a field of ours; map_server ignores
 it): its unknown cells farther than D [m] from every free cell are then solid too. A
@@ -13,6 +14,9 @@ robot exploring it drives out and on across the whole map rectangle, to its edge
 unknown outside and the unseen insides of furniture lie far from free cells and turn
 solid; the laser shadows inside the rooms (unknown fingers, narrow) stay open, and a band
 of D behind a gap is too narrow for the robot. D = 0: every unknown cell is solid.
+
+Geometry helpers answer in metres in the world frame, which is the frame of the map's
+origin (the ``map`` frame of the navigation stack when that map is loaded).
 """
 import math
 
@@ -68,8 +72,7 @@ class World:
         # The map's outermost cells are walls: the robot cannot leave the map, so the laser
         # must see where it stops (where free cells reach the edge, as on willow-full's
         # west side, a robot drove into an edge its laser did not show).
-        walls = walls.copy()
-        walls[[0, -1], :] = True
+        walls[[0, -1], :] = True      # walls is a new array here (comparisons above)
         walls[:, [0, -1]] = True
         self.walls = np.ascontiguousarray(walls)
         self.dist = raycast.distance_field(self.walls)  # [cells]
