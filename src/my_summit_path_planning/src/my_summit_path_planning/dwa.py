@@ -485,6 +485,13 @@ def _corner_clearance(field, costmap, x, y, th, corners):
     return np.where(blocked, -depth, np.inf).min(axis=1)
 
 
+def footprint_checks(footprint):
+    """(covers, corners) for footprint_clearance: the footprint's axis circles and grid
+    circles, and its polygon's corners (None for a round robot, which has none)."""
+    covers = (footprint.covering_circles(), footprint.grid_circles())
+    return covers, (None if footprint.is_circle else footprint.polygon)
+
+
 def footprint_clearance(dist_m, costmap, x, y, th, covers, corners=None):
     """Clearance [m] (negative: collision) of footprint poses from blocked cells.
 
@@ -570,9 +577,7 @@ class DWAPlanner:
         if holonomic is None:
             holonomic = config.holonomic_robot or (config.max_vel_y > 0 and config.vy_samples > 1)
         self.holonomic = bool(holonomic)
-        self.circle_centres, self.circle_radius = footprint.covering_circles()
-        self.covers = (footprint.covering_circles(), footprint.grid_circles())
-        self.corners = None if footprint.is_circle else footprint.polygon
+        self.covers, self.corners = footprint_checks(footprint)
         self.oscillation = OscillationFlags(config.oscillation_reset_dist, config.oscillation_reset_angle)
         self.plan = None
         self.goal_yaw = 0.0

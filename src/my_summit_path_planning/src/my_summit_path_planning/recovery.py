@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from .dwa import footprint_clearance
+from .dwa import footprint_checks, footprint_clearance
 
 DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
@@ -148,8 +148,7 @@ class RotateRecovery:
         n = max(1, int(math.ceil(angle / step)))
         sign = 1.0 if angle >= 0 else -1.0
         ths = pose[2] + sign * abs(angle) * np.arange(1, n + 1) / n
-        covers = (self.footprint.covering_circles(), self.footprint.grid_circles())
-        corners = None if self.footprint.is_circle else self.footprint.polygon
+        covers, corners = footprint_checks(self.footprint)
         clear = footprint_clearance(dist, costmap, np.full(n, float(pose[0])), np.full(n, float(pose[1])),
                                     ths, covers, corners)
         return bool((clear >= 0.0).all())
