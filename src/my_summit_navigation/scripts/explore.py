@@ -17,7 +17,9 @@ left (or none can be reached) it stops, says so, and saves the map.
   pub   ~summary (std_msgs/String, latched): why it ended, goals sent, blacklisted, time
   params (explore_lite's): ~robot_base_frame (base_footprint), ~planner_frequency (0.33
         Hz), ~progress_timeout (30 s), ~potential_scale (3.0), ~gain_scale (1.0),
-        ~min_frontier_size (0.75 m); ours: ~save_map (base path; default
+        ~min_frontier_size (0.75 m); ours: ~goal_margin (0.3 m) and ~goal_search (1.0 m):
+        the goal steps back from the frontier's edge to a cell goal_margin from anything
+        unreachable, within goal_search (frontiers.margin_goal); ~save_map (base path; default
         $ROS_HOME/explored_map; empty: do not save), ~max_time (0 = no limit [s]).
 """
 import math
@@ -50,7 +52,9 @@ class Explore:
         self.progress_timeout = float(rospy.get_param("~progress_timeout", 30.0))
         self.params = fr.FrontierParams(potential_scale=float(rospy.get_param("~potential_scale", 3.0)),
                                         gain_scale=float(rospy.get_param("~gain_scale", 1.0)),
-                                        min_frontier_size=float(rospy.get_param("~min_frontier_size", 0.75)))
+                                        min_frontier_size=float(rospy.get_param("~min_frontier_size", 0.75)),
+                                        goal_margin=float(rospy.get_param("~goal_margin", 0.3)),
+                                        goal_search=float(rospy.get_param("~goal_search", 1.0)))
         self.save_base = rospy.get_param("~save_map", os.path.join(rospkg.get_ros_home(), "explored_map"))
         self.max_time = float(rospy.get_param("~max_time", 0.0))
         self.lock = threading.Lock()

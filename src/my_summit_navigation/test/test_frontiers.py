@@ -22,8 +22,35 @@ def test_one_frontier_at_the_end_of_the_known_corridor():
     assert len(fs) == 1
     f = fs[0]
     assert math.isclose(f.size, 1.0, abs_tol=0.11)                # the 10-cell opening
-    assert 2.9 <= f.goal[0] <= 3.0 and 0.5 <= f.goal[1] <= 1.5    # the last known column
-    assert 2.2 <= f.distance <= 3.0                                # travel from x 0.5 to x 2.95
+    # goal_margin (0.3 m) back from the last known column (x 2.95), in the open corridor
+    assert 2.6 <= f.goal[0] <= 2.8 and 0.7 <= f.goal[1] <= 1.3
+    assert 1.9 <= f.distance <= 2.6                                # travel from x 0.5 to x 2.75
+    edge = fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=0.5,
+                                                                            goal_margin=0.0))
+    assert 2.9 <= edge[0].goal[0] <= 3.0                           # explore_lite's goal: on the edge
+
+
+def test_goal_steps_back_into_the_open_and_keeps_the_frontier_in_sight():
+    # a room (rows 0..29, cols 0..29) known; its east wall (col 30) has a 0.4 m doorway at
+    # rows 10..13 into a 0.4 m wide known passage (cols 31..35) ending in the unknown
+    g = np.full((30, 50), -1, np.int16)
+    g[:, :30] = 0
+    g[:, 30] = 100
+    g[10:14, 30:36] = 0
+    g[9, 30:36] = 100
+    g[14, 30:36] = 100
+    fs = fr.find_frontiers(g, 0.1, (0.0, 0.0), (1.0, 1.5), fr.FrontierParams(min_frontier_size=0.3))
+    assert len(fs) == 1
+    gx, gy = fs[0].goal
+    # nothing in the passage is 0.3 m from its walls: the goal is the widest spot in sight
+    # of the edge cell, back in the room (x < 3.0), near the passage's axis (y 1.2)
+    assert 2.0 <= gx < 3.0 and 0.9 <= gy <= 1.5
+    # a wall just west of the doorway at col 27, rows 0..20 hides the south-west part of
+    # the room: the goal never goes behind it
+    g[0:21, 27] = 100
+    fs = fr.find_frontiers(g, 0.1, (0.0, 0.0), (1.0, 2.5), fr.FrontierParams(min_frontier_size=0.3, goal_search=2.0))
+    gx, gy = fs[0].goal
+    assert gx >= 2.75
 
 
 def test_small_frontiers_blacklist_and_no_reach():

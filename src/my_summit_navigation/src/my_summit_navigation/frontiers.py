@@ -12,9 +12,14 @@ On a costmap_2d-style grid (nav_msgs/OccupancyGrid values of move_base's global 
 2. frontier cells: unknown cells with a reachable 4-neighbour;
 3. frontiers: 8-connected groups of frontier cells (cv2.connectedComponentsWithStats),
    at least min_frontier_size [m] long (cell count x resolution);
-4. for each, its goal: the reachable cell next to the frontier nearest to the frontier's
-   centroid; its distance: the travel distance from the robot over reachable cells
-   (Dijkstra over the reachable cells, scipy.sparse.csgraph);
+4. for each, its goal: start from the reachable cell next to the frontier nearest to the
+   frontier's centroid (explore_lite's goal), then step back from the edge to the nearest
+   reachable cell at least goal_margin from every unreachable one (unknown, wall, its
+   inflation), in sight of that cell and within goal_search of it. A goal on the very edge
+   of the known space turns into an obstacle as soon as the next map shows the wall
+   behind the frontier, and move_base aborts it; explore_lite leaves that to the global
+   planner's tolerance. Its distance: the travel distance from the robot over reachable
+   cells (Dijkstra over the reachable cells, scipy.sparse.csgraph);
 5. cost = potential_scale * distance - gain_scale * size [m]; cheapest first. Goals near
    a blacklisted point (failed before) are left out.
 """
@@ -50,6 +55,8 @@ class FrontierParams:
     gain_scale: float = 1.0
     min_frontier_size: float = 0.75   # [m]
     blacklist_radius: float = 0.5     # [m] goals this close to a failed one are left out
+    goal_margin: float = 0.3          # [m] ours: goal this far from unreachable cells ...
+    goal_search: float = 1.0          # [m] ... if there is such a cell this close to the edge
 
 
 def reachable_mask(grid, start_cell):
@@ -102,6 +109,38 @@ def travel_distances(reach, start_cell, resolution):
     return out
 
 
+def margin_goal(reach, margin, anchor, resolution, params):
+    """The goal cell (row, col) for a frontier whose nearest edge cell is anchor: the
+    reachable cell closest to anchor with margin >= goal_margin (margin: distance [m] of
+    each cell to the nearest unreachable one), within goal_search of anchor, and whose
+    straight line to anchor runs over reachable cells only (so the frontier stays in
+    sight). No such cell: the one with the largest margin; anchor if nothing is better."""
+    r0, c0 = anchor
+    k = int(math.ceil(params.goal_search / resolution))
+    h, w = reach.shape
+    ra, rb, ca, cb = max(0, r0 - k), min(h, r0 + k + 1), max(0, c0 - k), min(w, c0 + k + 1)
+    rr, cc = np.nonzero(reach[ra:rb, ca:cb])
+    rr, cc = rr + ra, cc + ca
+    d = np.hypot(rr - r0, cc - c0)
+    keep = d <= k
+    rr, cc, d = rr[keep], cc[keep], d[keep]
+    # line of sight: sample each segment candidate -> anchor every half cell
+    n = max(2, 2 * k + 1)
+    t = np.linspace(0.0, 1.0, n)[None, :]
+    sr = np.rint(rr[:, None] + (r0 - rr[:, None]) * t).astype(np.int64)
+    sc = np.rint(cc[:, None] + (c0 - cc[:, None]) * t).astype(np.int64)
+    seen = reach[sr, sc].all(axis=1)
+    rr, cc, d = rr[seen], cc[seen], d[seen]
+    m = margin[rr, cc]
+    ok = m >= params.goal_margin - 1e-9
+    if ok.any():
+        j = np.flatnonzero(ok)[np.argmin(d[ok])]
+    else:
+        # the widest spot: largest margin (to the cell), then the nearest
+        j = np.lexsort((d, -np.round(m / resolution)))[0]
+    return int(rr[j]), int(cc[j])
+
+
 def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), blacklist=()):
     """Frontiers of grid (int array, row 0 = lowest y) seen from robot_xy, cheapest first.
 
@@ -124,6 +163,9 @@ def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), 
     edge_lab = cv2.dilate(labels.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int64)
     er, ec = np.nonzero(edge)
     dist = travel_distances(reach, rc, resolution)
+    # distance [m] of each reachable cell to the nearest unreachable one (cv2 measures to
+    # the nearest zero pixel, centre to centre)
+    margin = cv2.distanceTransform(reach.astype(np.uint8), cv2.DIST_L2, 5) * resolution
     out = []
     for k in range(1, n):
         size = stats[k, cv2.CC_STAT_AREA] * resolution
@@ -135,10 +177,11 @@ def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), 
             continue
         r, c = er[mine], ec[mine]
         j = np.argmin((c - cx) ** 2 + (r - cy) ** 2)
-        goal = (ox + (c[j] + 0.5) * resolution, oy + (r[j] + 0.5) * resolution)
+        gr, gc = margin_goal(reach, margin, (r[j], c[j]), resolution, params)
+        goal = (ox + (gc + 0.5) * resolution, oy + (gr + 0.5) * resolution)
         if any(math.hypot(goal[0] - bx, goal[1] - by) < params.blacklist_radius for bx, by in blacklist):
             continue
-        d = float(dist[r[j], c[j]])
+        d = float(dist[gr, gc])
         if not math.isfinite(d):
             continue
         centroid = (ox + (cx + 0.5) * resolution, oy + (cy + 0.5) * resolution)
