@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """bench_multi_robot: the multi-robot lesson's figures, printed as one JSON summary.
 
-    rosrun my_summit_navigation bench_multi_robot.py [--runs 3] [--max-robots 6] [--window 30]
+    rosrun my_summit_navigation bench_multi_robot.py [--runs 3] [--max-robots 12] [--window 30]
     (from the workspace: source devel/setup.bash; /usr/bin/python3 .../bench_multi_robot.py)
 
 (a) lesson: the lesson's rostests (multi_robot_lesson_amcl.test, _fake.test) --runs times
@@ -9,7 +9,8 @@
     localization error (amcl_pose against the truth), collisions, simulated time to the
     result; the wall time of the run; medians over the runs.
 (b) scale: n = 1, 2, ... robots on willow-full, each with amcl + move_base and a goal
-    across the lesson's room, the simulator at speed 1; over --window seconds of wall
+    across the lesson's room and the rooms and corridors around it (AREA: 26 spawn points,
+    so up to 13 robots), the simulator at speed 1; over --window seconds of wall
     time while they drive: the achieved real-time factor (/clock advance / wall time) and
     the CPU of every robot's amcl + move_base (cores, from /proc through psutil) and of the
     simulator. The answer is the largest n whose factor is >= --rtf (default 0.97:
@@ -43,7 +44,10 @@ from my_summit_navigation.multi_robot import robots_param  # noqa: E402
 MAP_YAML = os.path.join(PKG, "maps", "willow-full.yaml")
 LINE = re.compile(r"MULTI_ROBOT (.*?) text=")
 FIELD = re.compile(r"(\w+)=(\S+)")
-ROOM = (1.5, 15.0, 11.0, 19.8)     # [m] x0, x1, y0, y1: the lesson's room, where robots spawn
+# [m] x0, x1, y0, y1: the lesson's room (x 1.5-15, y 11-19.8) and what lies around it up to
+# y 25 and x 19: where robots spawn (the south rows) and drive to (the north rows). The
+# room alone has 9 points: 4 robots, which still ran at real time.
+AREA = (1.5, 19.0, 5.0, 25.0)
 SPACING = 1.5                      # [m] between spawn/goal grid points
 CLEARANCE = 0.6                    # [m] from any wall for a grid point
 RUN_TIMEOUT = 900                  # [s] wall per rostest run
@@ -106,7 +110,7 @@ def lesson(runs):
 
 # -- (b) scale ---------------------------------------------------------------------------
 def grid_points():
-    """Free points (x, y) [m] of the lesson's room with CLEARANCE from walls, SPACING apart."""
+    """Free points (x, y) [m] of AREA with CLEARANCE from walls, SPACING apart, south to north."""
     with open(MAP_YAML) as f:
         import yaml
         meta = yaml.safe_load(f)
@@ -117,8 +121,8 @@ def grid_points():
     dist = cv2.distanceTransform(free, cv2.DIST_L2, 5) * res
     h = img.shape[0]
     pts = []
-    for y in np.arange(ROOM[2], ROOM[3], SPACING):
-        for x in np.arange(ROOM[0], ROOM[1], SPACING):
+    for y in np.arange(AREA[2], AREA[3], SPACING):
+        for x in np.arange(AREA[0], AREA[1], SPACING):
             r, c = h - 1 - int((y - oy) / res), int((x - ox) / res)
             if dist[r, c] >= CLEARANCE:
                 pts.append((round(float(x), 2), round(float(y), 2)))
@@ -244,7 +248,7 @@ def scale(max_robots, window, rtf_min):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--runs", type=int, default=3, help="runs of each lesson rostest (default %(default)s)")
-    p.add_argument("--max-robots", type=int, default=6, help="scale: stop there (default %(default)s)")
+    p.add_argument("--max-robots", type=int, default=12, help="scale: stop there (default %(default)s)")
     p.add_argument("--window", type=float, default=30.0, help="[s] wall: scale measurement window")
     p.add_argument("--rtf", type=float, default=0.97, help="real-time factor that counts as real time")
     p.add_argument("--skip-lesson", action="store_true")
