@@ -1,6 +1,7 @@
 """Helpers for the simulator's rostest nodes: wait in simulated time, latest messages."""
 import math
 import threading
+import time
 
 import rospy
 
@@ -33,35 +34,31 @@ class Latest:
             n = sum(1 for t in self.stamps if t0 <= t < t1)
         return n / (t1 - t0)
 
-    def wait_newer(self, t, timeout_wall=30.0):
-        """Block until a message stamped after simulated time t [s] arrives (one that shows
-        what changed at t, however late this loaded machine delivers it); returns it."""
-        import time
+    def _wait_for(self, ready, what, timeout_wall):
+        """Block until ready(last message) is true; returns that message, AssertionError
+        naming what was awaited on timeout."""
         end = time.monotonic() + timeout_wall
         while True:
             with self.lock:
                 msg = self.msg
-            if msg is not None and msg.header.stamp.to_sec() > t:
+            if msg is not None and ready(msg):
                 return msg
             if time.monotonic() > end:
-                raise AssertionError(f"no message on {self.sub.name} stamped after {t:.2f} s "
-                                     f"within {timeout_wall} s")
+                raise AssertionError(f"no message on {self.sub.name}{what} within {timeout_wall} s")
             time.sleep(0.01)
+
+    def wait_newer(self, t, timeout_wall=30.0):
+        """Block until a message stamped after simulated time t [s] arrives (one that shows
+        what changed at t, however late this loaded machine delivers it); returns it."""
+        return self._wait_for(lambda m: m.header.stamp.to_sec() > t, f" stamped after {t:.2f} s", timeout_wall)
 
     def wait(self, timeout_wall=30.0):
         """Block until a first message arrives; AssertionError on timeout."""
-        import time
-        end = time.monotonic() + timeout_wall
-        while self.msg is None:
-            if time.monotonic() > end:
-                raise AssertionError(f"no message on {self.sub.name} within {timeout_wall} s")
-            time.sleep(0.02)
-        return self.msg
+        return self._wait_for(lambda m: True, "", timeout_wall)
 
 
 def wait_clock(timeout_wall=30.0):
     """Wait until /clock has started (sim time > 0)."""
-    import time
     end = time.monotonic() + timeout_wall
     while rospy.Time.now().to_sec() <= 0.0:
         if time.monotonic() > end:
