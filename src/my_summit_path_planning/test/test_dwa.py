@@ -6,8 +6,8 @@ import pytest
 
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
-from my_summit_path_planning.dwa import (DWAConfig, DWAPlanner, LatencyMeter, OscillationFlags, dynamic_window,
-                                         sample_velocities, simulate)
+from my_summit_path_planning.dwa import (ESCAPE_TOL, DWAConfig, DWAPlanner, LatencyMeter, OscillationFlags,
+                                         dynamic_window, sample_velocities, simulate)
 
 CFG = dict(max_vel_x=1.5, min_vel_x=0.0, max_vel_y=0.0, min_vel_y=0.0, max_vel_trans=1.5,
            min_vel_trans=0.1, max_vel_theta=3.0, min_vel_theta=0.3, acc_lim_x=2.5,
@@ -506,6 +506,84 @@ def test_turns_round_in_a_dead_end_with_the_goal_beyond_it(footprint):
     assert turned < 2.0 * math.pi                    # it turned round once, it did not spin
 
 
+# The local costmap in willow-full exploration (bench_explore.py --world willow --seed 1, t 279 s),
+# cells (dx, dy) from the robot's cell as the laser marked them: the robot, heading 65 deg,
+# has turned into a doorway that leads north between furniture, 0.35-0.5 m from its corners.
+DOORWAY_CELLS = [
+    (-30, -17), (-30, 6), (-29, -18), (-29, -17), (-29, 4), (-29, 6), (-29, 7), (-28, -18),
+    (-28, 4), (-28, 6), (-27, 6), (-27, 7), (-26, 5), (-26, 7), (-25, 5), (-25, 7), (-24, 8),
+    (-23, 6), (-23, 7), (-23, 8), (-23, 20), (-22, -23), (-22, 7), (-22, 8), (-22, 19), (-22, 20),
+    (-21, -24), (-21, -23), (-21, -22), (-21, 5), (-21, 7), (-21, 8), (-21, 17), (-21, 18),
+    (-21, 19), (-21, 20), (-21, 21), (-20, -25), (-20, -24), (-20, -23), (-20, -22), (-20, 7),
+    (-20, 8), (-20, 9), (-20, 17), (-20, 18), (-20, 19), (-20, 20), (-20, 21), (-19, -28),
+    (-19, -25), (-19, -24), (-19, 6), (-19, 8), (-19, 9), (-19, 18), (-19, 19), (-19, 20),
+    (-19, 21), (-19, 22), (-19, 23), (-18, -30), (-18, -29), (-18, -28), (-18, -27), (-18, -24),
+    (-18, -23), (-18, 6), (-18, 8), (-18, 9), (-18, 10), (-18, 20), (-18, 21), (-18, 22),
+    (-17, -30), (-17, -29), (-17, -24), (-17, -23), (-17, 7), (-17, 8), (-17, 9), (-17, 10),
+    (-17, 11), (-17, 12), (-17, 13), (-16, 7), (-16, 8), (-16, 9), (-16, 10), (-16, 20), (-15, 7),
+    (-15, 8), (-15, 20), (-15, 21), (-15, 30), (-14, 20), (-14, 21), (-14, 22), (-14, 28),
+    (-14, 29), (-13, 25), (-13, 26), (-12, 6), (-12, 23), (-12, 25), (-12, 26), (-12, 27), (-11, 4),
+    (-11, 5), (-11, 6), (-11, 7), (-11, 20), (-11, 21), (-11, 22), (-11, 23), (-11, 24), (-11, 25),
+    (-11, 26), (-11, 27), (-10, 4), (-10, 5), (-10, 6), (-10, 7), (-10, 18), (-10, 19), (-10, 21),
+    (-10, 22), (-10, 23), (-10, 24), (-10, 25), (-10, 28), (-9, 5), (-9, 6), (-9, 7), (-9, 8),
+    (-9, 9), (-9, 15), (-9, 16), (-9, 17), (-9, 18), (-9, 19), (-9, 20), (-9, 21), (-9, 23),
+    (-9, 24), (-9, 25), (-9, 26), (-9, 27), (-8, 5), (-8, 6), (-8, 7), (-8, 8), (-8, 16), (-8, 17),
+    (-8, 18), (-7, 5), (-7, 6), (-7, 16), (6, 30), (7, 27), (7, 28), (7, 29), (7, 30), (8, 7),
+    (8, 25), (8, 26), (8, 27), (8, 28), (9, 5), (9, 6), (9, 7), (9, 8), (9, 22), (9, 23), (9, 24),
+    (9, 25), (9, 26), (10, 2), (10, 3), (10, 4), (10, 5), (10, 6), (10, 7), (10, 8), (10, 9),
+    (10, 10), (10, 19), (10, 20), (10, 21), (10, 22), (10, 23), (11, -21), (11, 2), (11, 3),
+    (11, 4), (11, 8), (11, 9), (11, 10), (11, 16), (11, 17), (11, 18), (11, 19), (11, 20), (11, 21),
+    (12, -22), (12, -21), (12, 9), (12, 10), (12, 14), (12, 15), (12, 16), (12, 17), (12, 18),
+    (13, -22), (13, -21), (13, 11), (13, 12), (13, 13), (13, 14), (13, 15), (13, 16), (14, -21),
+    (14, -20), (14, 13), (15, -21), (15, -20), (15, -15), (15, -14), (15, -13), (16, -15),
+    (16, -14), (16, -13), (16, 5), (17, -15), (17, -14), (17, -13), (17, -12), (18, -13), (18, -12),
+    (18, -1), (18, 0), (18, 1), (19, -13), (19, -12), (19, -4), (19, -3), (19, -2), (19, -1),
+    (19, 0), (19, 1), (20, -12), (20, -6), (20, -5), (20, -4), (20, -3), (20, -2), (20, 1),
+    (21, -9), (21, -8), (21, -7), (21, -6), (21, -5), (21, -4), (22, -11), (22, -10), (22, -9),
+    (22, -8), (22, -7), (23, -14), (23, -13), (23, -12), (23, -11), (23, -10), (23, -9), (24, -15),
+    (24, -14), (24, -13), (24, -12), (28, -18), (28, -17), (29, -19), (29, -18), (29, -17),
+    (30, -22), (30, -21), (30, -20)
+]
+
+
+def test_creeps_out_of_a_doorway_it_is_wedged_in(footprint):
+    """Field failure (willow-full exploration, from seed 1's start): the robot stood in a
+    doorway between furniture, its footprint 3 mm from the marked cells, its plan turning
+    north through the doorway. Every constant-velocity arc, checked over the whole horizon
+    (1.9 s), lost more than ESCAPE_TOL of clearance somewhere, so escape mode found no
+    valid command (of 587 samples 587 collide) for minutes and the explore goals were
+    blacklisted one by one. Now a slow forward or turning command is admissible when the
+    robot can stop before it loses clearance (Fox et al.'s admissible velocities): it
+    creeps round into the doorway and half a metre along it, never cutting into the marked
+    cells by more than the escape tolerance. (Where the doorway narrows further on it
+    dithers again, turning one way and the other: not solved here.)"""
+    from my_summit_path_planning.navfn import resample_path
+    res, frac = 0.05, (0.228, 0.626)
+    m = recorded_costmap(footprint, DOORWAY_CELLS)
+    x0, y0 = -3.5 + (70 + frac[0]) * res, -3.5 + (70 + frac[1]) * res
+    pose = (x0, y0, 1.1281)
+    plan = resample_path(np.array([(0.02, 0.0), (0.04, 0.4), (0.08, 0.79), (0.0, 1.18), (-0.06, 1.55),
+                                   (-0.16, 1.92), (0.07, 2.23), (0.46, 2.3), (0.65, 2.24)]) + (x0, y0), 0.025)
+    # Exploration's DWA parameters (navigate_while_mapping.launch: max_vel_x 0.6, max_vel_theta 1.0).
+    cfg = DWAConfig(**dict(CFG, max_vel_x=0.6, max_vel_trans=0.6, max_vel_theta=1.0, goal_distance_bias=20.0,
+                           xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, footprint)
+    planner.set_plan(plan, math.atan2(*(plan[-1] - plan[-2])[::-1]))
+    clear = clearance_of(planner, m)
+    c0 = clear(pose)
+    assert 0.0 <= c0 < 0.005                    # wedged: 3 mm from the marked cells
+    vel, start, failed = (0.101, 0.0, 0.262), pose, 0
+    for _ in range(300):                        # 15 s
+        r = planner.compute_velocity(pose, vel, m)
+        if r.goal_reached:
+            break
+        failed += not r.ok
+        vel = r.cmd                             # (0, 0, 0) when not ok, as move_base stops the robot
+        x, y, yaw = pose
+        pose = (x + vel[0] * math.cos(yaw) * 0.05, y + vel[0] * math.sin(yaw) * 0.05, yaw + vel[2] * 0.05)
+        assert clear(pose) >= min(c0, 0.0) - ESCAPE_TOL - 1e-3
+    assert failed <= 20, failed                 # (130 before)
+    assert pose[1] - start[1] > 0.4, pose       # into the doorway, north (0.07 m before)
 def test_latency_meter_longest_recent_interval():
     m = LatencyMeter(window=3, pause=2.0)
     assert m.update(0.0) is None                      # one cycle: no interval yet

@@ -708,8 +708,12 @@ class DWAPlanner:
             # The clearance fell below the floor by more than our own motion can lose
             # (new obstacle cells marked, odometry drift): every sample starts below the
             # floor and none would be valid, a standstill recoveries cannot end (they
-            # keep the cells near the robot). Start over from here.
-            floor = c0
+            # keep the cells near the robot). Start over from here, with no slack to spend:
+            # the trajectories are simulated at constant velocity while the robot ramps up
+            # to it, so its own motion can fall a few millimetres short of what was
+            # checked, and a fresh ESCAPE_TOL after each such reset let it creep ever
+            # deeper (2.4 cm in a replay of a willow-full wedge).
+            floor = c0 + ESCAPE_TOL - ESCAPE_SLACK
         self._escape_floor = floor if escape else None
 
         # In escape mode the robot may also back up slowly: nose-in against a wall (or
@@ -793,13 +797,30 @@ class DWAPlanner:
         else:
             n_check = np.full(len(samples), n_steps)
         checked = steps < n_check[:, None]
-        centre_checked = checked
         # The lowest clearance over the checked steps and at the pose the next control
         # cycle starts from (self.latency on): the steps, sim_granularity apart, may
         # straddle it, and the corner check is sharp.
         nx, ny, nth = simulate(pose, samples, self.latency, 1)
-        min_clear = np.minimum(np.where(checked, clearance, np.inf).min(axis=1),
-                               self._footprint_clearance(dist_obs, costmap, nx[:, 0], ny[:, 0], nth[:, 0]))
+        next_clear = self._footprint_clearance(dist_obs, costmap, nx[:, 0], ny[:, 0], nth[:, 0])
+        min_clear = np.minimum(np.where(checked, clearance, np.inf).min(axis=1), next_clear)
+        if escape:
+            loses = min_clear < floor - ESCAPE_TOL
+            # Creeping out (forward or turning on the spot, at most ESCAPE_VEL_X; backing
+            # up has its own rules below) needs room only to stop: the next cycle plans
+            # again from where this one leaves the robot (Fox et al.'s admissible
+            # velocities). Checked over the whole horizon, a robot wedged beside furniture
+            # with a few centimetres of room ahead had no constant-velocity arc that kept
+            # its clearance for 1.9 s and stood there for minutes (willow-full exploration).
+            # Such a short move may not spend ESCAPE_TOL, though: it must not bring the
+            # footprint nearer than it is, nor within ESCAPE_SLACK of touching, or the
+            # robot would turn a corner into a wall a millimetre at a time.
+            creep = (np.hypot(samples[:, 0], samples[:, 1]) <= ESCAPE_VEL_X + EPS) & (samples[:, 0] >= 0.0)
+            short = steps < np.minimum(n_check, n_brake)[:, None]
+            min_short = np.minimum(np.where(short, clearance, np.inf).min(axis=1), next_clear)
+            crept = creep & loses & (min_short >= max(floor - ESCAPE_TOL, min(c0, ESCAPE_SLACK)))
+            loses &= ~crept
+            checked = np.where(crept[:, None], short, checked)
+        centre_checked = checked
         leaves = (~inside & checked).any(axis=1)
         if escape:
             # Backing up only where it regains clearance or goes back along the plan (a
@@ -807,8 +828,7 @@ class DWAPlanner:
             # never drive away backwards.
             along = _along_plan(togo, dist_path, costmap, pose, x[:, n_score - 1], y[:, n_score - 1])
             collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN) | along) | \
-                (min_clear < floor - ESCAPE_TOL) | \
-                ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1)
+                loses | ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1)
             occ = centre[:, n_score - 1].astype(np.float64)
             occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
             occ -= 100.0 * np.minimum(clearance[:, n_score - 1], 0.0)  # prefer regaining clearance
@@ -835,7 +855,7 @@ class DWAPlanner:
             # Boxed in: nose to a wall, a wall along the side, no turn possible and no
             # reversing regains clearance. Back out along the obstacle then, as long as the
             # clearance does not drop; once clear, the robot can turn again.
-            keeps = ~((min_clear < floor - ESCAPE_TOL) |
+            keeps = ~(loses |
                       ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1))
             backing = (samples[:, 0] < 0.0) & keeps & ~(leaves | oscillates | too_fast)
             if backing.any():
