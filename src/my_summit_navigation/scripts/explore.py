@@ -19,8 +19,13 @@ left (or none can be reached) it stops, says so, and saves the map.
         Hz), ~progress_timeout (30 s), ~potential_scale (3.0), ~gain_scale (1.0),
         ~min_frontier_size (0.75 m); ours: ~goal_margin (0.3 m) and ~goal_search (1.0 m):
         the goal steps back from the frontier's edge to a cell goal_margin from anything
-        unreachable, within goal_search (frontiers.margin_goal); ~save_map (base path; default
-        $ROS_HOME/explored_map; empty: do not save), ~max_time (0 = no limit [s]).
+        unreachable, within goal_search (frontiers.margin_goal); ~stuck_goals (3) and
+        ~stuck_distance (0.5 m): that many goals given up in a row for no progress while the
+        robot stayed within stuck_distance of where it was at the first means the robot is
+        stuck, not the frontiers unreachable: exploration ends and says so, map saved
+        (frontiers.StuckWatch; 0: never);
+        ~save_map (base path; default $ROS_HOME/explored_map; empty: do not save),
+        ~max_time (0 = no limit [s]).
 """
 import math
 import os
@@ -57,6 +62,8 @@ class Explore:
                                         goal_search=float(rospy.get_param("~goal_search", 1.0)))
         self.save_base = rospy.get_param("~save_map", os.path.join(rospkg.get_ros_home(), "explored_map"))
         self.max_time = float(rospy.get_param("~max_time", 0.0))
+        self.stuck = fr.StuckWatch(int(rospy.get_param("~stuck_goals", 3)),
+                                   float(rospy.get_param("~stuck_distance", 0.5)))
         self.lock = threading.Lock()
         self.costmap = None
         self.map_msg = None
@@ -110,12 +117,20 @@ class Explore:
         rospy.loginfo(f"explore: goal {self.sent}: frontier of {frontier.size:.1f} m at ({gx:.2f}, {gy:.2f}), "
                       f"{frontier.distance:.1f} m away")
 
-    def give_up_goal(self, why):
-        rospy.logwarn(f"explore: blacklisting ({self.goal[0]:.2f}, {self.goal[1]:.2f}): {why}")
+    def give_up_goal(self, why, robot, no_progress=False):
+        """Blacklist the active goal; returns the reason exploration is over when the
+        robot, not the goal, is the problem (see StuckWatch), else None. Only goals given
+        up for no progress count: move_base aborts a goal in an obstacle at once."""
+        rospy.logwarn(f"explore: blacklisting ({self.goal[0]:.2f}, {self.goal[1]:.2f}): {why} "
+                      f"(robot at ({robot[0]:.2f}, {robot[1]:.2f}))")
         self.blacklist.append(self.goal)
         self.failed += 1
         self.client.cancel_goal()
         self.goal = None
+        if no_progress and self.stuck.given_up(robot):
+            return (f"the robot is stuck at ({robot[0]:.2f}, {robot[1]:.2f}): {self.stuck.goals} goals in a row "
+                    f"given up without it moving {self.stuck.distance:.1f} m")
+        return None
 
     def step(self):
         """One planning round; returns the reason exploration is over, or None."""
@@ -130,10 +145,12 @@ class Explore:
             rospy.logwarn_throttle(10.0, f"explore: no robot pose: {e}")
             return None
         now = rospy.Time.now().to_sec()
+        self.stuck.update(robot)
         # the active goal: ended, or no progress?
         if self.goal is not None:
+            over = None
             if self.goal_state == ABORTED:
-                self.give_up_goal("move_base aborted it")
+                over = self.give_up_goal("move_base aborted it", robot)
             elif self.goal_state is not None:
                 # reached (or ended otherwise): what can be seen from there has been seen;
                 # a frontier whose goal falls here again is a pocket the laser cannot fill
@@ -144,7 +161,10 @@ class Explore:
                 if d < self.best_dist - MIN_PROGRESS:
                     self.best_dist, self.best_time = d, now
                 elif now - self.best_time > self.progress_timeout:
-                    self.give_up_goal(f"no progress for {self.progress_timeout:.0f} s")
+                    over = self.give_up_goal(f"no progress for {self.progress_timeout:.0f} s", robot,
+                                             no_progress=True)
+            if over is not None:
+                return over
         info = cm.info
         grid = np.asarray(cm.data, np.int16).reshape(info.height, info.width)
         found = fr.find_frontiers(grid, info.resolution, (info.origin.position.x, info.origin.position.y),

@@ -90,3 +90,23 @@ def test_coverage_of_a_half_known_world():
     cov = fr.exploration_coverage(world, 0.1, (0.0, 0.0), spawn, slam, 0.1, (-1.0, -1.0))
     assert 0.5 <= cov <= 0.56
     assert fr.exploration_coverage(world, 0.1, (0.0, 0.0), spawn, world, 0.1, (-1.0, -1.0)) == 1.0
+
+
+def test_stuck_watch_tells_a_stuck_robot_from_unreachable_goals():
+    w = fr.StuckWatch(goals=3, distance=0.5)
+    # wedged: three goals given up, the robot never out of a 0.5 m circle (it dithers)
+    assert not w.given_up((1.0, 1.0))
+    w.update((1.3, 1.2))
+    assert not w.given_up((1.2, 1.1))
+    assert w.given_up((0.9, 1.1))
+    # moving on between give-ups: the goals were the problem, not the robot
+    w = fr.StuckWatch(goals=3, distance=0.5)
+    assert not w.given_up((1.0, 1.0))
+    w.update((3.0, 1.0))        # drove off to another frontier...
+    w.update((1.1, 1.0))        # ...and came back
+    assert not w.given_up((1.1, 1.0))
+    assert not w.given_up((1.0, 1.1))
+    assert w.given_up((1.0, 1.0))
+    # stuck_goals 0: never stuck
+    w = fr.StuckWatch(goals=0)
+    assert not any(w.given_up((0.0, 0.0)) for _ in range(5))

@@ -190,6 +190,32 @@ def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), 
     return out
 
 
+class StuckWatch:
+    """Tells a stuck robot from unreachable frontiers (explore_lite cannot: it blacklists
+    every goal the robot makes no progress towards). `goals` goals in a row given up while
+    the robot never left a circle of `distance` [m] round where it was when the first of
+    them was given up: the goals were not the problem, the robot cannot move (on
+    willow-full a robot wedged beside furniture had 11 reachable frontiers blacklisted one
+    by one, 34 s apart, and the run ended with "no reachable frontier left")."""
+
+    def __init__(self, goals=3, distance=0.5):
+        self.goals = int(goals)
+        self.distance = float(distance)
+        self.where = []   # robot (x, y) at each give-up since it last moved away
+
+    def update(self, robot_xy):
+        """The robot's position now (call it every round): out of the circle, start over."""
+        if self.where and math.hypot(robot_xy[0] - self.where[0][0],
+                                     robot_xy[1] - self.where[0][1]) > self.distance:
+            self.where = []
+
+    def given_up(self, robot_xy):
+        """A goal given up with the robot at robot_xy; True when the robot is stuck."""
+        self.update(robot_xy)
+        self.where.append(tuple(robot_xy))
+        return self.goals > 0 and len(self.where) >= self.goals
+
+
 def explored_share(known, reachable_free):
     """Share of the reachable free cells (bool mask) that are known (bool mask, same
     grid), a known cell counting for its 8 neighbours too (one cell of registration)."""
