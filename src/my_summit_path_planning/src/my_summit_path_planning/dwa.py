@@ -58,7 +58,11 @@ Failure modes handled on purpose:
   and slow reversing (down to -ESCAPE_VEL_X) is sampled too, where it regains clearance
   or goes back along the plan: a robot stopped nose-in or parallel against a wall has no
   forward motion that does not cut into its clearance, and a robot in a narrow gap whose
-  plan now lies behind it has no room to turn round.
+  plan now lies behind it has no room to turn round. A slow forward or turning command
+  (up to ESCAPE_VEL_X) needs to keep the clearance only until the robot could stop
+  (Fox et al.'s admissibility), and may not lose any there: wedged in a doorway, every
+  arc lost clearance somewhere over the whole horizon, but a few centimetres of creeping
+  let the robot turn.
 - Late control loop (a loaded machine, a simulator faster than real time): move_base
   measures the interval between control cycles (set_control_latency) and braking, the
   goal approach and the collision horizon plan for it instead of one nominal period.
