@@ -19,7 +19,7 @@ left (or none can be reached) it stops, says so, and saves the map.
         Hz), ~progress_timeout (30 s), ~potential_scale (3.0), ~gain_scale (1.0),
         ~min_frontier_size (0.75 m); ours: ~goal_margin (0.3 m) and ~goal_search (1.0 m):
         the goal steps back from the frontier's edge to a cell goal_margin from anything
-        unreachable, within goal_search (frontiers.margin_goal); ~stuck_goals (3) and
+        unreachable, within goal_search (frontiers.margin_goal); ~stuck_goals (6) and
         ~stuck_distance (0.5 m): that many goals given up in a row for no progress while the
         robot stayed within stuck_distance of where it was at the first means the robot is
         stuck, not the frontiers unreachable: exploration ends and says so, map saved
@@ -62,7 +62,7 @@ class Explore:
                                         goal_search=float(rospy.get_param("~goal_search", 1.0)))
         self.save_base = rospy.get_param("~save_map", os.path.join(rospkg.get_ros_home(), "explored_map"))
         self.max_time = float(rospy.get_param("~max_time", 0.0))
-        self.stuck = fr.StuckWatch(int(rospy.get_param("~stuck_goals", 3)),
+        self.stuck = fr.StuckWatch(int(rospy.get_param("~stuck_goals", 6)),
                                    float(rospy.get_param("~stuck_distance", 0.5)))
         self.lock = threading.Lock()
         self.costmap = None

@@ -196,9 +196,11 @@ class StuckWatch:
     the robot never left a circle of `distance` [m] round where it was when the first of
     them was given up: the goals were not the problem, the robot cannot move (on
     willow-full a robot wedged beside furniture had 11 reachable frontiers blacklisted one
-    by one, 34 s apart, and the run ended with "no reachable frontier left")."""
+    by one, 34 s apart, and the run ended with "no reachable frontier left"). Not too
+    few: in another run a robot wedged for 3 minutes, 3 goals given up, got free and
+    explored on."""
 
-    def __init__(self, goals=3, distance=0.5):
+    def __init__(self, goals=6, distance=0.5):
         self.goals = int(goals)
         self.distance = float(distance)
         self.where = []   # robot (x, y) at each give-up since it last moved away
