@@ -6,8 +6,9 @@
 Reads move_base's global costmap (on slam_gmapping's growing map), picks the cheapest
 frontier (my_summit_navigation.frontiers: potential_scale x travel distance - gain_scale
 x size), sends move_base a goal there and repeats at planner_frequency. A goal move_base
-aborts, or one with no progress for progress_timeout, is blacklisted. When no frontier is
-left (or none can be reached) it stops, says so, and saves the map.
+aborts, or one with no progress for progress_timeout, is blacklisted; one the robot comes
+within REACHED of counts as reached. When no frontier is left (or none can be reached, or
+the robot is stuck) it stops, says so, and saves the map.
 
   action client of move_base (move_base_msgs/MoveBaseAction)
   sub   ~costmap_topic (default move_base/global_costmap/costmap, nav_msgs/OccupancyGrid)
