@@ -50,7 +50,7 @@ MIN_PROGRESS = 0.1   # [m] closer to the goal that counts as progress
 # [m] this near the goal counts as there: what can be seen from it has been seen. Beside a
 # wall move_base may be unable to turn to the goal heading (DWA: "cannot rotate to the
 # goal heading") and never report the goal reached; explore waited progress_timeout there
-# and blacklisted the goal as failed (two of five built-in runs lost 30-40 s that way).
+# and blacklisted it as failed, or move_base aborted it (3 of 5 built-in runs lost time so).
 REACHED = 0.3
 SAME_GOAL = 0.5      # [m] a frontier goal this close to the active one keeps it
 EMPTY_ROUNDS = 4     # planning rounds in a row without a frontier before it is over
