@@ -44,9 +44,9 @@ from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Bool, String
 
 from my_summit_navigation import frontiers as fr
+from my_summit_navigation.patrol_logic import ProgressWatch
 
 SUCCEEDED, ABORTED = 3, 4
-MIN_PROGRESS = 0.1   # [m] closer to the goal that counts as progress
 # [m] this near the goal counts as there: what can be seen from it has been seen. Beside a
 # wall move_base may be unable to turn to the goal heading (DWA: "cannot rotate to the
 # goal heading") and never report the goal reached; explore waited progress_timeout there
@@ -76,7 +76,7 @@ class Explore:
         self.blacklist = []
         self.goal = None            # (x, y) of the active goal
         self.goal_state = None
-        self.best_dist, self.best_time = math.inf, None
+        self.progress = ProgressWatch(self.progress_timeout)   # per goal: no progress for progress_timeout
         self.sent = 0
         self.failed = 0             # goals aborted or without progress
         self.empty_rounds = 0       # planning rounds in a row that found no frontier
@@ -117,7 +117,7 @@ class Explore:
         goal.target_pose.pose.orientation.z, goal.target_pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
         with self.lock:
             self.goal, self.goal_state = (gx, gy), None
-        self.best_dist, self.best_time = math.inf, rospy.Time.now().to_sec()
+        self.progress.reset(rospy.Time.now().to_sec())
         self.sent += 1
         self.client.send_goal(goal, done_cb=self._on_done)
         rospy.loginfo(f"explore: goal {self.sent}: frontier of {frontier.size:.1f} m at ({gx:.2f}, {gy:.2f}), "
@@ -167,9 +167,7 @@ class Explore:
                 if d <= REACHED:
                     self.blacklist.append(self.goal)   # as reached; the next goal preempts it
                     self.goal = None
-                elif d < self.best_dist - MIN_PROGRESS:
-                    self.best_dist, self.best_time = d, now
-                elif now - self.best_time > self.progress_timeout:
+                elif self.progress.update(d, now):
                     over = self.give_up_goal(f"no progress for {self.progress_timeout:.0f} s", robot,
                                              no_progress=True)
             if over is not None:
