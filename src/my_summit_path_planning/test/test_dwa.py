@@ -77,6 +77,14 @@ def test_dynamic_window_and_samples():
     assert x[0, -1] == pytest.approx(1.0) and y[0, -1] == pytest.approx(0.0)
 
 
+def advance(pose, vel, dt=0.05):
+    """A perfect robot's pose after holding body velocity vel (vx, vy, vth) for dt [s]
+    (base_local_planner's Euler step: translate with the heading at the start, then turn)."""
+    x, y, yaw = pose
+    return (x + (vel[0] * math.cos(yaw) - vel[1] * math.sin(yaw)) * dt,
+            y + (vel[0] * math.sin(yaw) + vel[1] * math.cos(yaw)) * dt, yaw + vel[2] * dt)
+
+
 def run(planner, m, footprint, pose, vel=(0.0, 0.0, 0.0), steps=60, dt=0.05):
     """Drive a perfect robot (velocity = command) for steps periods; returns poses and results."""
     poses, results = [pose], []
@@ -86,9 +94,7 @@ def run(planner, m, footprint, pose, vel=(0.0, 0.0, 0.0), steps=60, dt=0.05):
         if r.goal_reached:
             break
         vel = r.cmd
-        x, y, yaw = pose
-        pose = (x + (vel[0] * math.cos(yaw) - vel[1] * math.sin(yaw)) * dt,
-                y + (vel[0] * math.sin(yaw) + vel[1] * math.cos(yaw)) * dt, yaw + vel[2] * dt)
+        pose = advance(pose, vel, dt)
         poses.append(pose)
         assert not footprint_hits(m, footprint, *pose)
     return poses, results
@@ -240,8 +246,7 @@ def test_table_spot_robot_can_turn_and_leave(footprint, robot_x):
         r = planner.compute_velocity(pose, vel, m)
         results.append(r)
         vel = r.cmd   # (0, 0, 0) when not ok
-        x, y, yaw = pose
-        pose = (x + vel[0] * math.cos(yaw) * 0.05, y + vel[0] * math.sin(yaw) * 0.05, yaw + vel[2] * 0.05)
+        pose = advance(pose, vel)
         poses.append(pose)
         for lx in TABLE_LEGS_X:
             for ly in TABLE_LEGS_Y:
@@ -418,8 +423,7 @@ def test_pressed_against_a_ragged_wall_drives_on(footprint):
         r = planner.compute_velocity(pose, vel, m)
         results.append(r)
         vel = r.cmd                   # (0, 0, 0) when not ok, as move_base stops the robot
-        x, y, yaw = pose
-        pose = (x + vel[0] * math.cos(yaw) * 0.05, y + vel[0] * math.sin(yaw) * 0.05, yaw + vel[2] * 0.05)
+        pose = advance(pose, vel)
         assert clear(pose) >= min(c0, 0.0) - 0.01 - 1e-3
     failed = [res.reason for res in results if not res.ok]
     assert len(failed) <= 4, failed[:2]
@@ -495,8 +499,7 @@ def test_turns_round_in_a_dead_end_with_the_goal_beyond_it(footprint):
         r = planner.compute_velocity(pose, vel, m)
         results.append(r)
         vel = r.cmd                             # (0, 0, 0) when not ok, as move_base stops the robot
-        x, y, yaw = pose
-        pose = (x + vel[0] * math.cos(yaw) * 0.05, y + vel[0] * math.sin(yaw) * 0.05, yaw + vel[2] * 0.05)
+        pose = advance(pose, vel)
         turned += abs(vel[2]) * 0.05
         best = min(best, to_go(pose))
         assert clear(pose) >= min(c0, 0.0) - 0.01 - 1e-3
@@ -579,8 +582,7 @@ def test_creeps_out_of_a_doorway_it_is_wedged_in(footprint):
             break
         failed += not r.ok
         vel = r.cmd                             # (0, 0, 0) when not ok, as move_base stops the robot
-        x, y, yaw = pose
-        pose = (x + vel[0] * math.cos(yaw) * 0.05, y + vel[0] * math.sin(yaw) * 0.05, yaw + vel[2] * 0.05)
+        pose = advance(pose, vel)
         assert clear(pose) >= min(c0, 0.0) - ESCAPE_TOL - 1e-3
     assert failed <= 20, failed                 # (130 before)
     assert pose[1] - start[1] > 0.4, pose       # into the doorway, north (0.07 m before)
