@@ -40,6 +40,7 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 from roslaunch_session import RoslaunchSession, run_bounded, wait_for, wait_for_sim_time_param  # noqa: E402
 
 from my_summit_navigation.multi_robot import robots_param  # noqa: E402
+from summit_xl_sim.map_io import load_map  # noqa: E402
 
 MAP_YAML = os.path.join(PKG, "maps", "willow-full.yaml")
 LINE = re.compile(r"MULTI_ROBOT (.*?) text=")
@@ -111,19 +112,14 @@ def lesson(runs):
 # -- (b) scale ---------------------------------------------------------------------------
 def grid_points():
     """Free points (x, y) [m] of AREA with CLEARANCE from walls, SPACING apart, south to north."""
-    with open(MAP_YAML) as f:
-        import yaml
-        meta = yaml.safe_load(f)
-    img = cv2.imread(os.path.join(os.path.dirname(MAP_YAML), meta["image"]), cv2.IMREAD_UNCHANGED)
-    res = float(meta["resolution"])
-    ox, oy = meta["origin"][0], meta["origin"][1]
-    free = (img > (1.0 - meta["free_thresh"]) * 255).astype(np.uint8)
-    dist = cv2.distanceTransform(free, cv2.DIST_L2, 5) * res
-    h = img.shape[0]
+    m = load_map(MAP_YAML)
+    res = m.resolution
+    ox, oy = m.origin[0], m.origin[1]
+    dist = cv2.distanceTransform((m.data == 0).astype(np.uint8), cv2.DIST_L2, 5) * res
     pts = []
     for y in np.arange(AREA[2], AREA[3], SPACING):
         for x in np.arange(AREA[0], AREA[1], SPACING):
-            r, c = h - 1 - int((y - oy) / res), int((x - ox) / res)
+            r, c = int((y - oy) / res), int((x - ox) / res)  # rows bottom-up, as in the grid
             if dist[r, c] >= CLEARANCE:
                 pts.append((round(float(x), 2), round(float(y), 2)))
     return pts
