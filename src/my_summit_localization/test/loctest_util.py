@@ -9,17 +9,18 @@ refined by registering the map against the world (register_map: the SLAM map is 
 cm and a fraction of a degree off the nominal frame).
 """
 import math
+import os
+import sys
 import threading
 import time
 
+import rospkg
 import rospy
 
+sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("summit_xl_sim"), "test"))
+from simtest_util import Latest, sleep_sim, yaw_of  # noqa: E402,F401  (re-exported to the tests)
+
 WALL_TIMEOUT = 60.0   # [s] default wall-clock bound of a wait
-
-
-def yaw_of(q):
-    """Yaw [rad] of a geometry_msgs/Quaternion."""
-    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
 
 
 def wrap(a):
@@ -66,28 +67,6 @@ def pose_error(est, truth):
     return math.hypot(est[0] - truth[0], est[1] - truth[1]), abs(wrap(est[2] - truth[2]))
 
 
-class Latest:
-    """Keeps the last message of a topic and counts messages (thread-safe)."""
-
-    def __init__(self, topic, msg_type, callback=None):
-        self.msg, self.count = None, 0
-        self.lock = threading.Lock()
-        self.callback = callback
-        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=50)
-
-    def _cb(self, msg):
-        with self.lock:
-            self.msg = msg
-            self.count += 1
-        if self.callback:
-            self.callback(msg)
-
-    def wait(self, timeout_wall=WALL_TIMEOUT, after=0):
-        """Block until more than `after` messages arrived; AssertionError on timeout."""
-        wait_for(lambda: self.count > after, f"a message on {self.sub.name}", timeout_wall)
-        return self.msg
-
-
 def wait_for(condition, what, timeout_wall=WALL_TIMEOUT):
     """Block until condition() (wall-clock bound); AssertionError naming `what`."""
     end = time.monotonic() + timeout_wall
@@ -100,11 +79,6 @@ def wait_for(condition, what, timeout_wall=WALL_TIMEOUT):
 def wait_clock(timeout_wall=WALL_TIMEOUT):
     """Wait until /clock has started (sim time > 0)."""
     wait_for(lambda: rospy.Time.now().to_sec() > 0.0, "/clock", timeout_wall)
-
-
-def sleep_sim(seconds):
-    """Sleep in simulated time."""
-    rospy.sleep(rospy.Duration.from_sec(seconds))
 
 
 def truth_in_map(odom_msg, m_in_w):

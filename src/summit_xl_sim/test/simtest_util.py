@@ -12,12 +12,14 @@ def yaw_of(q):
 
 
 class Latest:
-    """Keeps the last message of a topic and counts messages (thread-safe)."""
+    """Keeps the last message of a topic and counts messages (thread-safe); callback, if
+    given, is also called with each message (outside the lock)."""
 
-    def __init__(self, topic, msg_type):
+    def __init__(self, topic, msg_type, callback=None):
         self.msg, self.count = None, 0
         self.stamps = []  # header stamps [s] of every message, for rates in simulated time
         self.lock = threading.Lock()
+        self.callback = callback
         self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=50)
 
     def _cb(self, msg):
@@ -26,6 +28,8 @@ class Latest:
             self.count += 1
             if hasattr(msg, "header"):
                 self.stamps.append(msg.header.stamp.to_sec())
+        if self.callback:
+            self.callback(msg)
 
     def rate_between(self, t0, t1):
         """Messages per second of simulated time stamped within [t0, t1) [s]: independent
@@ -35,26 +39,27 @@ class Latest:
         return n / (t1 - t0)
 
     def _wait_for(self, ready, what, timeout_wall):
-        """Block until ready(last message) is true; returns that message, AssertionError
-        naming what was awaited on timeout."""
+        """Block until ready(last message, count) is true; returns that message,
+        AssertionError naming what was awaited on timeout."""
         end = time.monotonic() + timeout_wall
         while True:
             with self.lock:
-                msg = self.msg
-            if msg is not None and ready(msg):
+                msg, count = self.msg, self.count
+            if msg is not None and ready(msg, count):
                 return msg
-            if time.monotonic() > end:
-                raise AssertionError(f"no message on {self.sub.name}{what} within {timeout_wall} s")
+            if time.monotonic() > end or rospy.is_shutdown():
+                raise AssertionError(f"no message on {self.sub.name}{what} within {timeout_wall:.0f} s")
             time.sleep(0.01)
 
     def wait_newer(self, t, timeout_wall=30.0):
         """Block until a message stamped after simulated time t [s] arrives (one that shows
         what changed at t, however late this loaded machine delivers it); returns it."""
-        return self._wait_for(lambda m: m.header.stamp.to_sec() > t, f" stamped after {t:.2f} s", timeout_wall)
+        return self._wait_for(lambda m, n: m.header.stamp.to_sec() > t, f" stamped after {t:.2f} s", timeout_wall)
 
-    def wait(self, timeout_wall=30.0):
-        """Block until a first message arrives; AssertionError on timeout."""
-        return self._wait_for(lambda m: True, "", timeout_wall)
+    def wait(self, timeout_wall=60.0, after=0):
+        """Block until more than `after` messages have arrived (by default: a first one);
+        returns the last; AssertionError on timeout."""
+        return self._wait_for(lambda m, n: n > after, f" after the first {after}" if after else "", timeout_wall)
 
 
 def wait_clock(timeout_wall=30.0):
