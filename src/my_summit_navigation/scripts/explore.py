@@ -157,15 +157,13 @@ class Explore:
             over = None
             if self.goal_state == ABORTED:
                 over = self.give_up_goal("move_base aborted it", robot)
-            elif self.goal_state is not None:
-                # reached (or ended otherwise): what can be seen from there has been seen;
-                # a frontier whose goal falls here again is a pocket the laser cannot fill
-                self.blacklist.append(self.goal)
-                self.goal = None
             else:
                 d = math.hypot(robot[0] - self.goal[0], robot[1] - self.goal[1])
-                if d <= REACHED:
-                    self.blacklist.append(self.goal)   # as reached; the next goal preempts it
+                if self.goal_state is not None or d <= REACHED:
+                    # reached (or ended otherwise), or within REACHED (the next goal preempts
+                    # it): what can be seen from there has been seen; a frontier whose goal
+                    # falls here again is a pocket the laser cannot fill
+                    self.blacklist.append(self.goal)
                     self.goal = None
                 elif self.progress.update(d, now):
                     over = self.give_up_goal(f"no progress for {self.progress_timeout:.0f} s", robot,
