@@ -586,6 +586,63 @@ def test_creeps_out_of_a_doorway_it_is_wedged_in(footprint):
         assert clear(pose) >= min(c0, 0.0) - ESCAPE_TOL - 1e-3
     assert failed <= 20, failed                 # (130 before)
     assert pose[1] - start[1] > 0.4, pose       # into the doorway, north (0.07 m before)
+def test_backs_up_and_turns_round_between_furniture(footprint):
+    """Field failure (willow-full exploration from seed 0's start, data_furniture_wedge.yaml):
+    nose first between furniture, its plan leading away behind it, DWA turned the robot left
+    and right in place, each turn blocked a few tenths of a radian on (DWA scores
+    constant-velocity arcs: it cannot plan the three-point turn), and rotate_recovery found
+    that turning would hit. The back_up recovery (recovery.BackUpRecovery) drives it 0.3 m
+    straight back, checking the footprint behind; from there DWA turns round and follows
+    the plan, never touching the marked cells."""
+    import os
+
+    import yaml
+
+    from my_summit_path_planning.navfn import resample_path
+    from my_summit_path_planning.recovery import BackUpRecovery
+    with open(os.path.join(os.path.dirname(__file__), "data_furniture_wedge.yaml")) as f:
+        case = yaml.safe_load(f)
+    res, frac = 0.05, case["frac"]
+    m = recorded_costmap(footprint, [tuple(c) for c in case["cells"]])
+    x0, y0 = -3.5 + (70 + frac[0]) * res, -3.5 + (70 + frac[1]) * res
+    wedged = (x0, y0, case["yaw"])
+    plan = resample_path(np.array(case["plan"]) + (x0, y0), 0.025)
+    cfg = DWAConfig(**dict(CFG, max_vel_x=0.6, max_vel_trans=0.6, max_vel_theta=1.0, goal_distance_bias=20.0,
+                           xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, footprint)
+    clear = clearance_of(planner, m)
+
+    def drive(pose, vel, steps=300):            # 15 s of DWA, as move_base runs it
+        planner.set_plan(plan, math.atan2(*(plan[-1] - plan[-2])[::-1]))
+        for _ in range(steps):
+            r = planner.compute_velocity(pose, vel, m)
+            if r.goal_reached:
+                break
+            vel = r.cmd
+            pose = advance(pose, vel)
+            assert clear(pose) >= -ESCAPE_TOL - 1e-3 and not footprint_hits(m, footprint, *pose)
+        return pose
+
+    # DWA alone: in place for 15 s (0.11 m moved).
+    p = drive(wedged, tuple(case["velocity"]))
+    assert math.hypot(p[0] - x0, p[1] - y0) < 0.3, p
+    # back_up, then DWA.
+    rec = BackUpRecovery(footprint, frequency=20.0, acc_lim_x=cfg.acc_lim_x)
+    rec.start(wedged)
+    p, vel = wedged, (0.0, 0.0, 0.0)
+    for _ in range(400):
+        step = rec.step(p, vel, m)
+        if step.done:
+            break
+        assert step.cmd[0] < 0.0 and step.cmd[2] == 0.0
+        vel = step.cmd
+        p = advance(p, vel)
+        assert not footprint_hits(m, footprint, *p)
+    assert step.done and step.ok and rec.travelled(p) == pytest.approx(0.3, abs=0.02), (step, p)
+    p = drive(p, (0.0, 0.0, 0.0))
+    assert math.hypot(p[0] - plan[-1][0], p[1] - plan[-1][1]) < 0.3, p   # along the plan to its end, 3 m on
+
+
 def test_latency_meter_longest_recent_interval():
     m = LatencyMeter(window=3, pause=2.0)
     assert m.update(0.0) is None                      # one cycle: no interval yet

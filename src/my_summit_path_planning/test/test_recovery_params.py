@@ -11,8 +11,9 @@ from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
 from my_summit_path_planning.layers import scan_to_observation
 from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
-from my_summit_path_planning.recovery import (RotateRecovery, clear_costmap_layers,
-                                              default_recovery_sequence)
+from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TYPE, BackUpRecovery,
+                                              ClearCostmapRecovery, RotateRecovery, clear_costmap_layers,
+                                              default_recovery_sequence, recovery_sequence)
 
 CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
 
@@ -61,6 +62,73 @@ def test_rotate_recovery_turns_once_and_stops_when_blocked(footprint):
     assert not rec.step((0.0, 0.0, 0.0), (0, 0, 0), blocked).ok
     seq = default_recovery_sequence(None, None, footprint)
     assert [n for n, _ in seq] == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+
+
+def _back_up(rec, costmap, pose=(0.0, 0.0, 0.0), steps=400, move=True):
+    """Run a back_up recovery on a perfect robot; returns (last step, pose)."""
+    rec.start(pose)
+    vel = (0.0, 0.0, 0.0)
+    for _ in range(steps):
+        step = rec.step(pose, vel, costmap)
+        if step.done:
+            return step, pose
+        assert step.cmd[0] < 0.0 and step.cmd[1] == 0.0 and step.cmd[2] == 0.0
+        vel = step.cmd
+        if move:
+            pose = (pose[0] + vel[0] * math.cos(pose[2]) * 0.05, pose[1] + vel[0] * math.sin(pose[2]) * 0.05, pose[2])
+    return step, pose
+
+
+def test_back_up_recovery_backs_up_and_stops_where_it_would_hit(footprint):
+    free = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    step, pose = _back_up(BackUpRecovery(footprint, backup_dist=0.3, backup_speed=0.1), free, (0.0, 0.0, math.pi / 2))
+    assert step.done and step.ok and not step.reason
+    assert pose[0] == pytest.approx(0.0) and -0.31 < pose[1] < -0.28     # straight back (facing +y)
+    # A wall 0.15 m behind the rear (x = -0.36): backs up to it and says so, ok.
+    wall = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    wall.data[:, 39] = cv.LETHAL_OBSTACLE                                  # cells x in [-0.55, -0.50)
+    step, pose = _back_up(BackUpRecovery(footprint), wall)
+    assert step.done and step.ok and "backing up further would hit" in step.reason
+    assert 0.02 < -pose[0] < 0.3 and not footprint_hits_costmap(wall, footprint, pose)
+    # Against the wall already: does not move, not ok.
+    step, _ = _back_up(BackUpRecovery(footprint), wall, (pose[0] - 0.02, 0.0, 0.0))
+    assert step.done and not step.ok and "would hit" in step.reason
+    # A robot that does not move (held by something the costmap lacks) gives up after
+    # time_allowance.
+    step, _ = _back_up(BackUpRecovery(footprint, time_allowance=2.0, frequency=20.0), free, move=False)
+    assert step.done and not step.ok and "in 2 s" in step.reason
+    with pytest.raises(ValueError, match="backup_dist"):
+        BackUpRecovery(footprint, backup_dist=-0.3)
+
+
+def footprint_hits_costmap(costmap, footprint, pose):
+    poly = footprint.oriented(*pose)
+    mx, my, inside = costmap.world_to_map_array(poly)
+    return (~inside).any() or (costmap.data[my, mx] == cv.LETHAL_OBSTACLE).any()
+
+
+def test_recovery_behaviors_list(footprint):
+    spec = [{"name": "conservative_reset", "type": CLEAR_TYPE}, {"name": "back_up", "type": BACKUP_TYPE},
+            {"name": "rotate_recovery", "type": ROTATE_TYPE},
+            {"name": "aggressive_reset", "type": CLEAR_TYPE}]
+    seq = recovery_sequence(spec, {"aggressive_reset": {"reset_distance": 1.84}, "back_up": {"backup_dist": 0.2}},
+                            None, None, footprint, rotate_kwargs={"max_rotational_vel": 0.8},
+                            backup_kwargs={"frequency": 10.0, "backup_dist": 0.5})
+    assert [n for n, _ in seq] == ["conservative_reset", "back_up", "rotate_recovery", "aggressive_reset"]
+    (_, cons), (_, back), (_, rot), (_, aggr) = seq
+    assert isinstance(cons, ClearCostmapRecovery) and cons.reset_distance == 3.0      # clear_costmap_recovery's default
+    assert aggr.reset_distance == 1.84 and cons.layer_names == ("obstacle_layer",)
+    assert back.backup_dist == 0.2 and back.frequency == 10.0                      # its namespace wins
+    assert rot.max_rotational_vel == 0.8
+    for bad, match in [([], "non-empty list"), ("back_up", "non-empty list"),
+                       ([{"name": "x"}], r"recovery_behaviors\[0\]: expected"),
+                       ([{"name": "a", "type": CLEAR_TYPE}, {"name": "a", "type": ROTATE_TYPE}], "used twice"),
+                       ([{"name": "a", "type": "moveback_recovery/MoveBackRecovery"}], "unknown type"),
+                       ([{"name": "b", "type": BACKUP_TYPE}], r"\(b\): backup_speed")]:
+        with pytest.raises(ValueError, match=match):
+            recovery_sequence(bad, {"b": {"backup_speed": 0}}, None, None, footprint)
+    with pytest.raises(ValueError, match="unexpected keyword"):
+        recovery_sequence([{"name": "b", "type": BACKUP_TYPE}], {"b": {"speed": 0.1}}, None, None, footprint)
 
 
 def test_config_files_load():

@@ -187,6 +187,8 @@ class MoveBaseParams:
     local_costmap: CostmapConfig
     navfn: NavfnConfig
     dwa: DWAConfig
+    # each custom recovery behaviour's own namespace: {name: {param: value}}
+    recovery_params: dict = field(default_factory=dict)
 
 
 def _read(path):

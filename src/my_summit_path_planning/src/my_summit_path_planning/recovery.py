@@ -1,11 +1,15 @@
-"""move_base's recovery behaviours: clear the costmaps, rotate in place.
+"""move_base's recovery behaviours: clear the costmaps, rotate in place, back up.
 
 Reference: ROS 1 navigation ``clear_costmap_recovery`` (reset_distance, layer_names,
 clearing the layer *outside* a reset_distance square centred on the robot) and
 ``rotate_recovery`` (a full turn in place at a speed bounded by the acceleration needed
 to stop, aborted when the footprint would hit something); move_base's default
 sequence: conservative reset (reset_distance = conservative_reset_dist), rotate,
-aggressive reset (reset_distance = 4 x circumscribed radius), rotate.
+aggressive reset (reset_distance = 4 x circumscribed radius), rotate; and, as move_base
+does, a custom ``recovery_behaviors`` list of {name, type} with each behaviour's
+parameters in its own namespace (recovery_sequence). Our one addition to the types is
+back_up (``my_summit_path_planning/BackUpRecovery``, after Navigation2's BackUp
+behaviour): drive straight back a short way, checking the footprint behind.
 
 Pure: a recovery gets its costmaps, pose and velocity passed in and returns commands;
 the node publishes them. Each behaviour has the same small shape: ``start(pose)``, then
@@ -154,6 +158,90 @@ class RotateRecovery:
         return bool((clear >= 0.0).all())
 
 
+class BackUpRecovery:
+    """Back up straight for backup_dist [m] at up to backup_speed [m/s], checking the
+    footprint over the next check_ahead [m] behind the robot every step; stops where it
+    would hit. After Navigation2's BackUp behaviour (backup_dist, backup_speed,
+    time_allowance). Why: DWA scores constant-velocity arcs, so it cannot plan a
+    three-point turn. A robot that drove nose first between furniture, with its plan
+    behind it, turned left and right in place for minutes on willow-full: each in-place
+    turn was blocked a few tenths of a radian on, and rotate_recovery found that turning
+    would hit. 0.3 m back, DWA turned round and drove off (replays of the recorded local
+    costmaps: 2 of 3 wedges freed).
+
+    frequency [Hz] is the rate step() is called at (for time_allowance); acc_lim_x
+    [m/s^2] bounds the speed so that the robot can stop at backup_dist.
+    """
+
+    def __init__(self, footprint, backup_dist=0.3, backup_speed=0.1, time_allowance=10.0,
+                 frequency=20.0, acc_lim_x=2.5, check_ahead=0.05, sim_granularity=0.01):
+        _check_positive(backup_dist=backup_dist, backup_speed=backup_speed, time_allowance=time_allowance,
+                        frequency=frequency, acc_lim_x=acc_lim_x, check_ahead=check_ahead,
+                        sim_granularity=sim_granularity)
+        self.footprint = footprint
+        self.backup_dist = float(backup_dist)
+        self.backup_speed = float(backup_speed)
+        self.time_allowance = float(time_allowance)
+        self.frequency = float(frequency)
+        self.acc_lim_x = float(acc_lim_x)
+        self.check_ahead = float(check_ahead)
+        self.sim_granularity = float(sim_granularity)
+        self.start_pose = None
+        self.steps = 0
+
+    def start(self, pose):
+        """Begin backing up from pose (x, y, yaw)."""
+        self.start_pose = tuple(pose)
+        self.steps = 0
+
+    def travelled(self, pose):
+        """[m] from where it started."""
+        return math.hypot(pose[0] - self.start_pose[0], pose[1] - self.start_pose[1])
+
+    def step(self, pose, velocity, costmap):
+        """Command for this period; done once backup_dist back, where backing on would hit
+        (ok unless it could not move at all) or after time_allowance (not ok)."""
+        if self.start_pose is None:
+            self.start(pose)
+        self.steps += 1
+        done_m = self.travelled(pose)
+        left = self.backup_dist - done_m
+        if left <= 0.01:
+            return RecoveryStep(done=True)
+        if self.steps / self.frequency > self.time_allowance:
+            return RecoveryStep(done=True, ok=False, reason=f"backed up only {done_m:.2f} m of "
+                                f"{self.backup_dist:.2f} m in {self.time_allowance:.0f} s")
+        if not self._free(pose, min(left, self.check_ahead), costmap):
+            if done_m < 0.02:
+                return RecoveryStep(done=True, ok=False, reason="back up stopped: backing up would hit an obstacle")
+            return RecoveryStep(done=True, reason=f"backed up {done_m:.2f} m: backing up further would hit an obstacle")
+        speed = min(self.backup_speed, math.sqrt(2.0 * self.acc_lim_x * left))
+        return RecoveryStep(cmd=(-speed, 0.0, 0.0))
+
+    def _free(self, pose, dist, costmap):
+        """The footprint stays free of lethal/unknown cells over the next dist [m] straight
+        back (every sim_granularity, DWA's footprint_clearance)."""
+        data = costmap.data
+        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
+        if not blocked.any():
+            return True
+        dist_m = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
+                                       cv2.DIST_MASK_PRECISE) * costmap.resolution
+        n = max(1, int(math.ceil(dist / self.sim_granularity)))
+        back = dist * np.arange(1, n + 1) / n
+        x = pose[0] - back * math.cos(pose[2])
+        y = pose[1] - back * math.sin(pose[2])
+        covers, corners = footprint_checks(self.footprint)
+        clear = footprint_clearance(dist_m, costmap, x, y, np.full(n, float(pose[2])), covers, corners)
+        return bool((clear >= 0.0).all())
+
+
+def _check_positive(**values):
+    for k, v in values.items():
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) or v <= 0:
+            raise ValueError(f"{k}: expected a positive number, got {v!r}")
+
+
 def default_recovery_sequence(global_costmap, local_costmap, footprint, conservative_reset_dist=3.0,
                               rotate_kwargs=None, clearing_rotation_allowed=True,
                               layer_names=DEFAULT_LAYER_NAMES):
@@ -173,4 +261,50 @@ def default_recovery_sequence(global_costmap, local_costmap, footprint, conserva
         layer_names)))
     if clearing_rotation_allowed:
         seq.append(("rotate_recovery", RotateRecovery(footprint, **rk)))
+    return seq
+
+
+CLEAR_TYPE = "clear_costmap_recovery/ClearCostmapRecovery"
+ROTATE_TYPE = "rotate_recovery/RotateRecovery"
+BACKUP_TYPE = "my_summit_path_planning/BackUpRecovery"
+RECOVERY_TYPES = (CLEAR_TYPE, ROTATE_TYPE, BACKUP_TYPE)
+
+
+def recovery_sequence(spec, behaviour_params, global_costmap, local_costmap, footprint, rotate_kwargs=None,
+                      backup_kwargs=None):
+    """move_base's recovery_behaviors list [{name, type}, ...] -> [(name, behaviour), ...].
+
+    behaviour_params: {name: {param: value}} (each behaviour's own namespace, as move_base
+    loads it: ~<name>/reset_distance, ...); clear_costmap_recovery reads reset_distance
+    (3.0 m), layer_names ([obstacle_layer]) and force_clear_all (false; ours); rotate_recovery
+    and back_up take rotate_kwargs / backup_kwargs (the local planner's limits) overridden
+    by their namespace. ValueError naming the entry when the list is malformed, a name
+    repeats or a type is unknown (move_base then logs it and uses its default sequence).
+    """
+    if not isinstance(spec, (list, tuple)) or not spec:
+        raise ValueError(f"recovery_behaviors: expected a non-empty list of {{name, type}}, got {spec!r}")
+    seq, names = [], set()
+    for i, entry in enumerate(spec):
+        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str) \
+                or not isinstance(entry.get("type"), str) or not entry["name"]:
+            raise ValueError(f"recovery_behaviors[{i}]: expected {{name: ..., type: ...}}, got {entry!r}")
+        name, kind = entry["name"], entry["type"]
+        if name in names:
+            raise ValueError(f"recovery_behaviors[{i}]: the name {name!r} is used twice")
+        names.add(name)
+        own = dict((behaviour_params or {}).get(name) or {})
+        try:
+            if kind == CLEAR_TYPE:
+                beh = ClearCostmapRecovery(global_costmap, local_costmap, float(own.pop("reset_distance", 3.0)),
+                                           tuple(own.pop("layer_names", DEFAULT_LAYER_NAMES)),
+                                           bool(own.pop("force_clear_all", False)))
+            elif kind == ROTATE_TYPE:
+                beh = RotateRecovery(footprint, **{**(rotate_kwargs or {}), **own})
+            elif kind == BACKUP_TYPE:
+                beh = BackUpRecovery(footprint, **{**(backup_kwargs or {}), **own})
+            else:
+                raise ValueError(f"unknown type {kind!r} (known: {', '.join(RECOVERY_TYPES)})")
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"recovery_behaviors[{i}] ({name}): {e}") from None
+        seq.append((name, beh))
     return seq
