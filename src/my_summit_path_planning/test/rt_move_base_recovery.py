@@ -5,8 +5,9 @@ Four boxes (the simulator's add_box, world frame) ring the robot at its spawn po
 room to turn in place but no gap to leave by. A goal outside the ring: once the laser
 has put the ring into the costmaps there is no plan (or no valid command), and move_base
 must run its default recoveries in order (conservative_reset, rotate_recovery,
-aggressive_reset, rotate_recovery), as logged, then end ABORTED with move_base's
-text plus the last failure's reason. Zero collisions by ground truth.
+aggressive_reset, rotate_recovery), or the recovery_behaviors list it was given (~order:
+the names expected), as logged, then end ABORTED with move_base's text plus the last
+failure's reason. Zero collisions by ground truth, and the robot still in the ring.
 """
 import math
 import sys
@@ -52,6 +53,7 @@ class MoveBaseRecovery(unittest.TestCase):
         inner = rospy.get_param("~ring_inner")
         wall = rospy.get_param("~ring_wall")
         max_sim = rospy.get_param("~max_sim_time")
+        order = rospy.get_param("~order", DEFAULT_ORDER)
         m_in_w = lu.map_in_world()
         truth = mt.Truth(m_in_w)
         log = RosoutRecoveries()
@@ -83,17 +85,17 @@ class MoveBaseRecovery(unittest.TestCase):
               f"moved_m={math.hypot(end[0] - x, end[1] - y):.2f} text={text!r}")
         self.assertEqual(state, "ABORTED", text)
         # move_base starts the chain over when a valid plan comes back meanwhile (as the
-        # real one does): each run of the chain is a prefix of the default order, and
-        # the last one, which ends in the abort, is the whole of it.
+        # real one does): each run of the chain is a prefix of the order, and the last
+        # one, which ends in the abort, is the whole of it.
         runs = []
         for n in names:
-            if n == DEFAULT_ORDER[0] or not runs:
+            if n == order[0] or not runs:
                 runs.append([])
             runs[-1].append(n)
         self.assertTrue(runs, "no recovery behaviour was logged")
         for r in runs:
-            self.assertEqual(r, DEFAULT_ORDER[:len(r)], f"recoveries out of move_base's default order: {names}")
-        self.assertEqual(runs[-1], DEFAULT_ORDER, f"the last chain before the abort is not complete: {names}")
+            self.assertEqual(r, order[:len(r)], f"recoveries out of the order {order}: {names}")
+        self.assertEqual(runs[-1], order, f"the last chain before the abort is not complete: {names}")
         self.assertTrue(text.startswith(ABORT_TEXTS), f"abort text without move_base's reason: {text!r}")
         self.assertIn("Last failure: ", text, "the abort text does not say what failed last")
         self.assertGreater(len(text.split("Last failure: ", 1)[1]), 10)

@@ -592,8 +592,8 @@ def test_backs_up_and_turns_round_between_furniture(footprint):
     and right in place, each turn blocked a few tenths of a radian on (DWA scores
     constant-velocity arcs: it cannot plan the three-point turn), and rotate_recovery found
     that turning would hit. The back_up recovery (recovery.BackUpRecovery) drives it 0.3 m
-    straight back, checking the footprint behind; from there DWA turns round and follows
-    the plan, never touching the marked cells."""
+    straight back over the way it came (its trail), checking the footprint behind; from
+    there DWA turns round and follows the plan, never touching the marked cells."""
     import os
 
     import yaml
@@ -628,7 +628,7 @@ def test_backs_up_and_turns_round_between_furniture(footprint):
     assert math.hypot(p[0] - x0, p[1] - y0) < 0.3, p
     # back_up, then DWA.
     rec = BackUpRecovery(footprint, frequency=20.0, acc_lim_x=cfg.acc_lim_x)
-    rec.start(wedged)
+    rec.start(wedged, trail=[(x0 + dx, y0 + dy) for dx, dy in case["trail"]])   # the way it came
     p, vel = wedged, (0.0, 0.0, 0.0)
     for _ in range(400):
         step = rec.step(p, vel, m)

@@ -13,7 +13,8 @@ from my_summit_path_planning.layers import scan_to_observation
 from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
 from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TYPE, BackUpRecovery,
                                               ClearCostmapRecovery, RotateRecovery, clear_costmap_layers,
-                                              default_recovery_sequence, recovery_sequence)
+                                              default_recovery_sequence, recovery_sequence,
+                                              retrace_distance)
 
 CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
 
@@ -64,9 +65,16 @@ def test_rotate_recovery_turns_once_and_stops_when_blocked(footprint):
     assert [n for n, _ in seq] == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
 
 
-def _back_up(rec, costmap, pose=(0.0, 0.0, 0.0), steps=400, move=True):
-    """Run a back_up recovery on a perfect robot; returns (last step, pose)."""
-    rec.start(pose)
+def _trail_behind(pose, length=1.0):
+    """Points every 2 cm along the straight line the robot came by (length [m] behind it)."""
+    s = np.arange(0.0, length + 1e-9, 0.02)
+    return list(zip(pose[0] - s * math.cos(pose[2]), pose[1] - s * math.sin(pose[2])))
+
+
+def _back_up(rec, costmap, pose=(0.0, 0.0, 0.0), trail=None, steps=400, move=True):
+    """Run a back_up recovery on a perfect robot that came straight to pose (unless a trail
+    is given); returns (last step, pose)."""
+    rec.start(pose, trail=_trail_behind(pose) if trail is None else trail)
     vel = (0.0, 0.0, 0.0)
     for _ in range(steps):
         step = rec.step(pose, vel, costmap)
@@ -84,7 +92,7 @@ def test_back_up_recovery_backs_up_and_stops_where_it_would_hit(footprint):
     step, pose = _back_up(BackUpRecovery(footprint, backup_dist=0.3, backup_speed=0.1), free, (0.0, 0.0, math.pi / 2))
     assert step.done and step.ok and not step.reason
     assert pose[0] == pytest.approx(0.0) and -0.31 < pose[1] < -0.28     # straight back (facing +y)
-    # A wall 0.15 m behind the rear (x = -0.36): backs up to it and says so, ok.
+    # A wall 0.14 m behind the rear (x = -0.36): backs up to it and says so, ok.
     wall = Costmap2D(100, 100, 0.05, -2.5, -2.5)
     wall.data[:, 39] = cv.LETHAL_OBSTACLE                                  # cells x in [-0.55, -0.50)
     step, pose = _back_up(BackUpRecovery(footprint), wall)
@@ -99,6 +107,25 @@ def test_back_up_recovery_backs_up_and_stops_where_it_would_hit(footprint):
     assert step.done and not step.ok and "in 2 s" in step.reason
     with pytest.raises(ValueError, match="backup_dist"):
         BackUpRecovery(footprint, backup_dist=-0.3)
+
+
+def test_back_up_recovery_only_retraces_the_way_the_robot_came(footprint):
+    """The laser does not see behind the robot: back_up drives only over ground the robot's
+    centre has been on (within trail_tolerance of its trail), never into the unknown."""
+    free = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    # Never moved (spawned here): no ground behind it it knows.
+    step, pose = _back_up(BackUpRecovery(footprint), free, trail=[(0.0, 0.0)])
+    assert step.done and not step.ok and "has not driven over" in step.reason and pose == (0.0, 0.0, 0.0)
+    # Came 0.15 m straight: backs up 0.15 m (of 0.3), and says why it stopped there.
+    step, pose = _back_up(BackUpRecovery(footprint), free, trail=_trail_behind((0.0, 0.0, 0.0), 0.15))
+    assert step.done and step.ok and "as far as the robot has come" in step.reason
+    assert -0.16 < pose[0] < -0.13
+    # Came along a line at 45 degrees to its heading (it turned on the spot since): it
+    # leaves the trail by 0.1 m after 0.14 m straight back.
+    step, pose = _back_up(BackUpRecovery(footprint), free, trail=_trail_behind((0.0, 0.0, math.pi / 4), 1.0))
+    assert step.done and step.ok and -0.16 < pose[0] < -0.12
+    assert retrace_distance((0.0, 0.0, 0.0), _trail_behind((0.0, 0.0, 0.0), 1.0), 0.3, 0.1) == pytest.approx(0.3)
+    assert retrace_distance((0.0, 0.0, 0.0), [], 0.3, 0.1) == 0.0
 
 
 def footprint_hits_costmap(costmap, footprint, pose):

@@ -159,25 +159,32 @@ class RotateRecovery:
 
 
 class BackUpRecovery:
-    """Back up straight for backup_dist [m] at up to backup_speed [m/s], checking the
-    footprint over the next check_ahead [m] behind the robot every step; stops where it
-    would hit. After Navigation2's BackUp behaviour (backup_dist, backup_speed,
-    time_allowance). Why: DWA scores constant-velocity arcs, so it cannot plan a
-    three-point turn. A robot that drove nose first between furniture, with its plan
-    behind it, turned left and right in place for minutes on willow-full: each in-place
-    turn was blocked a few tenths of a radian on, and rotate_recovery found that turning
-    would hit. 0.3 m back, DWA turned round and drove off (replays of the recorded local
-    costmaps: 2 of 3 wedges freed).
+    """Back up straight for backup_dist [m] at up to backup_speed [m/s], over ground the
+    robot has driven: its centre stays within trail_tolerance [m] of its own recent
+    positions (the trail move_base gives start()), and the footprint is checked over the
+    next check_ahead [m] behind it every step; it stops where it would hit. After
+    Navigation2's BackUp behaviour (backup_dist, backup_speed, time_allowance), which checks
+    the costmap only: the laser looks forward, the cells behind a robot are as old as when
+    it passed them, and behind a robot that never drove there they are simply unknown
+    (free, without track_unknown_space). In a test ring the robot had never seen the wall
+    behind it and backed into it.
+
+    Why at all: DWA scores constant-velocity arcs, so it cannot plan a three-point turn. A
+    robot that drove nose first between furniture, with its plan behind it, turned left and
+    right in place for minutes on willow-full: each in-place turn was blocked a few tenths
+    of a radian on, and rotate_recovery found that turning would hit. 0.3 m back along the
+    way it came, DWA turned round and drove off (test_dwa, on the recorded costmap).
 
     frequency [Hz] is the rate step() is called at (for time_allowance); acc_lim_x
     [m/s^2] bounds the speed so that the robot can stop at backup_dist.
     """
 
     def __init__(self, footprint, backup_dist=0.3, backup_speed=0.1, time_allowance=10.0,
-                 frequency=20.0, acc_lim_x=2.5, check_ahead=0.05, sim_granularity=0.01):
+                 frequency=20.0, acc_lim_x=2.5, check_ahead=0.05, sim_granularity=0.01, trail_tolerance=0.1):
         _check_positive(backup_dist=backup_dist, backup_speed=backup_speed, time_allowance=time_allowance,
                         frequency=frequency, acc_lim_x=acc_lim_x, check_ahead=check_ahead,
-                        sim_granularity=sim_granularity)
+                        sim_granularity=sim_granularity, trail_tolerance=trail_tolerance)
+        self.trail_tolerance = float(trail_tolerance)
         self.footprint = footprint
         self.backup_dist = float(backup_dist)
         self.backup_speed = float(backup_speed)
@@ -188,11 +195,14 @@ class BackUpRecovery:
         self.sim_granularity = float(sim_granularity)
         self.start_pose = None
         self.steps = 0
+        self.limit = 0.0
 
-    def start(self, pose):
-        """Begin backing up from pose (x, y, yaw)."""
+    def start(self, pose, trail=()):
+        """Begin backing up from pose (x, y, yaw); trail: the (x, y) [m] the robot's centre
+        has recently been at, in the costmap's frame (its last few metres)."""
         self.start_pose = tuple(pose)
         self.steps = 0
+        self.limit = retrace_distance(pose, trail, self.backup_dist, self.trail_tolerance, self.sim_granularity)
 
     def travelled(self, pose):
         """[m] from where it started."""
@@ -205,9 +215,13 @@ class BackUpRecovery:
             self.start(pose)
         self.steps += 1
         done_m = self.travelled(pose)
-        left = self.backup_dist - done_m
+        if self.limit < 0.02:
+            return RecoveryStep(done=True, ok=False, reason="back up stopped: the robot has not driven over the "
+                                "ground behind it (the laser does not see there)")
+        left = self.limit - done_m
         if left <= 0.01:
-            return RecoveryStep(done=True)
+            return RecoveryStep(done=True, reason="" if self.limit >= self.backup_dist - 0.01 else
+                                f"backed up {done_m:.2f} m: as far as the robot has come that way")
         if self.steps / self.frequency > self.time_allowance:
             return RecoveryStep(done=True, ok=False, reason=f"backed up only {done_m:.2f} m of "
                                 f"{self.backup_dist:.2f} m in {self.time_allowance:.0f} s")
@@ -234,6 +248,29 @@ class BackUpRecovery:
         covers, corners = footprint_checks(self.footprint)
         clear = footprint_clearance(dist_m, costmap, x, y, np.full(n, float(pose[2])), covers, corners)
         return bool((clear >= 0.0).all())
+
+
+def retrace_distance(pose, trail, max_dist, tolerance, step=0.01):
+    """How far [m] (up to max_dist) the robot at pose (x, y, yaw) can back up straight over
+    its trail [(x, y), ...]: its centre stays within tolerance [m] of a trail point, and no
+    farther from pose than the trail goes (a robot that has not moved may not back up by
+    the tolerance into ground it never saw)."""
+    pts = np.asarray(trail, dtype=np.float64).reshape(-1, 2)
+    if len(pts) == 0:
+        return 0.0
+    extent = float(np.hypot(pts[:, 0] - pose[0], pts[:, 1] - pose[1]).max())
+    reach = min(max_dist, extent)
+    if reach <= 0.0:
+        return 0.0
+    s = np.arange(1, int(math.ceil(reach / step)) + 1) * step
+    s[-1] = reach
+    cx = pose[0] - s * math.cos(pose[2])
+    cy = pose[1] - s * math.sin(pose[2])
+    near = np.hypot(cx[:, None] - pts[None, :, 0], cy[:, None] - pts[None, :, 1]).min(axis=1) <= tolerance
+    if near.all():
+        return float(reach)
+    first_off = int(np.argmin(near))
+    return float(s[first_off - 1]) if first_off > 0 else 0.0
 
 
 def _check_positive(**values):
