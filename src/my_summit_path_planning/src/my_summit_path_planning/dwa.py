@@ -489,6 +489,17 @@ def _corner_clearance(field, costmap, x, y, th, corners):
     return np.where(blocked, -depth, np.inf).min(axis=1)
 
 
+def obstacle_distance(costmap):
+    """Distance [m] from each cell to the nearest lethal or unknown cell centre (OpenCV's
+    exact Euclidean distance transform); None when the costmap has no such cell."""
+    data = costmap.data
+    blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
+    if not blocked.any():
+        return None
+    return cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
+                                 cv2.DIST_MASK_PRECISE) * costmap.resolution
+
+
 def footprint_checks(footprint):
     """(covers, corners) for footprint_clearance: the footprint's axis circles and grid
     circles, and its polygon's corners (None for a round robot, which has none)."""
@@ -939,12 +950,9 @@ class DWAPlanner:
     def _rotation_is_free(self, pose, vth, costmap):
         """Footprint check of an in-place rotation at vth [rad/s] over sim_time."""
         cfg = self.config
-        data = costmap.data
-        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
-        if not blocked.any():
+        dist = obstacle_distance(costmap)
+        if dist is None:
             return True
-        dist = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
-                                     cv2.DIST_MASK_PRECISE) * costmap.resolution
         n = max(2, int(math.ceil(abs(vth) * cfg.sim_time / cfg.angular_sim_granularity)))
         ths = pose[2] + vth * cfg.sim_time * np.arange(1, n + 1) / n
         clear = self._footprint_clearance(dist, costmap, np.full(n, pose[0]), np.full(n, pose[1]), ths)

@@ -18,11 +18,9 @@ the node publishes them. Each behaviour has the same small shape: ``start(pose)`
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
-from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from .dwa import footprint_checks, footprint_clearance
+from .dwa import footprint_checks, footprint_clearance, obstacle_distance
 
 DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
@@ -92,6 +90,17 @@ class ClearCostmapRecovery:
         return RecoveryStep(done=True)
 
 
+def footprint_free(footprint, costmap, x, y, th):
+    """The footprint at every pose (arrays x, y [m], th [rad]) keeps clearance >= 0 from the
+    lethal and unknown cells (DWA's footprint_clearance: axis circles, refined by the grid
+    circles and the corners near obstacles)."""
+    dist = obstacle_distance(costmap)
+    if dist is None:
+        return True
+    covers, corners = footprint_checks(footprint)
+    return bool((footprint_clearance(dist, costmap, x, y, th, covers, corners) >= 0.0).all())
+
+
 class RotateRecovery:
     """rotate_recovery: turn a full circle in place, checking the footprint ahead.
 
@@ -142,20 +151,11 @@ class RotateRecovery:
         (checked every sim_granularity [m] of arc at the circumscribed radius, with DWA's
         footprint_clearance: axis circles, refined by the grid circles and the corners
         near obstacles)."""
-        data = costmap.data
-        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
-        if not blocked.any():
-            return True
-        dist = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
-                                     cv2.DIST_MASK_PRECISE) * costmap.resolution
         step = self.sim_granularity / max(self.footprint.circumscribed_radius, 1e-6)
         n = max(1, int(math.ceil(angle / step)))
         sign = 1.0 if angle >= 0 else -1.0
         ths = pose[2] + sign * abs(angle) * np.arange(1, n + 1) / n
-        covers, corners = footprint_checks(self.footprint)
-        clear = footprint_clearance(dist, costmap, np.full(n, float(pose[0])), np.full(n, float(pose[1])),
-                                    ths, covers, corners)
-        return bool((clear >= 0.0).all())
+        return footprint_free(self.footprint, costmap, np.full(n, float(pose[0])), np.full(n, float(pose[1])), ths)
 
 
 class BackUpRecovery:
@@ -235,19 +235,10 @@ class BackUpRecovery:
     def _free(self, pose, dist, costmap):
         """The footprint stays free of lethal/unknown cells over the next dist [m] straight
         back (every sim_granularity, DWA's footprint_clearance)."""
-        data = costmap.data
-        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
-        if not blocked.any():
-            return True
-        dist_m = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
-                                       cv2.DIST_MASK_PRECISE) * costmap.resolution
         n = max(1, int(math.ceil(dist / self.sim_granularity)))
         back = dist * np.arange(1, n + 1) / n
-        x = pose[0] - back * math.cos(pose[2])
-        y = pose[1] - back * math.sin(pose[2])
-        covers, corners = footprint_checks(self.footprint)
-        clear = footprint_clearance(dist_m, costmap, x, y, np.full(n, float(pose[2])), covers, corners)
-        return bool((clear >= 0.0).all())
+        return footprint_free(self.footprint, costmap, pose[0] - back * math.cos(pose[2]),
+                              pose[1] - back * math.sin(pose[2]), np.full(n, float(pose[2])))
 
 
 def retrace_distance(pose, trail, max_dist, tolerance, step=0.01):
