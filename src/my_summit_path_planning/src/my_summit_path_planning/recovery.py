@@ -220,8 +220,8 @@ class BackUpRecovery:
                                 "ground behind it (the laser does not see there)")
         left = self.limit - done_m
         if left <= 0.01:
-            return RecoveryStep(done=True, reason="" if self.limit >= self.backup_dist - 0.01 else
-                                f"backed up {done_m:.2f} m: as far as the robot has come that way")
+            return RecoveryStep(done=True, reason=f"backed up {done_m:.2f} m" + (
+                "" if self.limit >= self.backup_dist - 0.01 else ": as far as the robot has come that way"))
         if self.steps / self.frequency > self.time_allowance:
             return RecoveryStep(done=True, ok=False, reason=f"backed up only {done_m:.2f} m of "
                                 f"{self.backup_dist:.2f} m in {self.time_allowance:.0f} s")
