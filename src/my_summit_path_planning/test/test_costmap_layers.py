@@ -7,7 +7,7 @@ import pytest
 
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
-from my_summit_path_planning.layers import (ObstacleLayer, inflation_cost, ray_cells,
+from my_summit_path_planning.layers import (ObstacleLayer, cells_inside_convex, inflation_cost, ray_cells,
                                             raytrace_reference, scan_to_observation)
 
 SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
@@ -113,6 +113,51 @@ def test_obstacle_layer_marks_and_clears(footprint):
     lc.update_map(0.0, 0.0, 0.0)
     assert lc.master.cost_at(1.52, 0.0) == cv.FREE_SPACE
     assert lc.master.cost_at(1.92, 0.0) == cv.LETHAL_OBSTACLE
+
+
+@pytest.mark.parametrize("padding", [0.0, 0.02])
+def test_footprint_clearing_keeps_cells_the_outline_only_grazes(padding):
+    fp = Footprint.from_params(SUMMIT_FOOTPRINT, padding=padding)
+    lc = _local(fp)
+    layer = lc.layer("obstacle_layer")
+    lc.update_map(0.0, 0.0, 0.0)
+    g = layer.grid
+    # Cells (by centre): under the body; wholly under it, next to the left side; a
+    # wall cell the unpadded side (y = 0.31 m) cuts through; one just outside it.
+    cells = {"centre": (0.025, 0.025), "inner": (0.125, 0.275), "grazed": (0.125, 0.325),
+             "outside": (0.125, 0.375)}
+    for x, y in cells.values():
+        mx, my = g.world_to_map(x, y)
+        g.data[my, mx] = cv.LETHAL_OBSTACLE
+    lc.update_map(0.0, 0.0, 0.0)
+    got = {k: lc.master.cost_at(x, y) for k, (x, y) in cells.items()}
+    assert got["centre"] == cv.FREE_SPACE and got["inner"] == cv.FREE_SPACE
+    assert got["grazed"] == cv.LETHAL_OBSTACLE and got["outside"] == cv.LETHAL_OBSTACLE
+
+
+def test_cells_inside_convex_either_winding():
+    g = Costmap2D(20, 20, 0.1, 0.0, 0.0)
+    square = np.array([[0.5, 0.5], [1.5, 0.5], [1.5, 1.5], [0.5, 1.5]])  # 10 x 10 cells
+    for poly in (square, square[::-1]):
+        my, mx = cells_inside_convex(poly, g, 0.0)
+        assert len(my) == 100 and mx.min() == 5 and mx.max() == 14
+        my, mx = cells_inside_convex(poly, g, 0.1)  # one cell row in from every side
+        assert len(my) == 64 and my.min() == 6 and my.max() == 13
+        my, mx = cells_inside_convex(poly, g, 0.0, whole_cells=True)  # squares on the grid
+        assert len(my) == 100
+        my, mx = cells_inside_convex(poly + 0.01, g, 0.0, whole_cells=True)  # shifted off it
+        assert len(my) == 81 and mx.min() == 6 and my.max() == 14
+    # A diamond: a cell square pokes out by half its diagonal, its centre a cell in.
+    diamond = np.array([[1.0, 0.4], [1.6, 1.0], [1.0, 1.6], [0.4, 1.0]])
+    ctr = cells_inside_convex(diamond, g, 0.0)
+    whole = cells_inside_convex(diamond, g, 0.0, whole_cells=True)
+    assert len(whole[0]) < len(ctr[0])
+    for my, mx in zip(*whole):
+        corners = np.array([[mx, my], [mx + 1, my], [mx, my + 1], [mx + 1, my + 1]]) * 0.1
+        assert (np.abs(corners[:, 0] - 1.0) + np.abs(corners[:, 1] - 1.0) <= 0.6 + 1e-9).all()
+    # Off the grid: only the cells on it.
+    my, mx = cells_inside_convex(square - 1.0, g, 0.0)
+    assert len(my) == 25 and mx.max() == 4
 
 
 def test_inf_readings_clear_but_never_mark(footprint):

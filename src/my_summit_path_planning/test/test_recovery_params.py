@@ -168,9 +168,9 @@ def test_config_files_load():
     assert [l.name for l in g.layers] == ["static_layer", "obstacle_layer", "inflation_layer"]
     assert loc.rolling_window and loc.master.size_x == 140
     # The global footprint is padded so that the planner keeps DWA's room (see
-    # test_planner_dwa_consistency.py); the local one is the robot's.
-    assert loc.footprint.inscribed_radius == pytest.approx(0.31)
-    assert g.footprint.inscribed_radius == pytest.approx(0.345)
+    # test_planner_dwa_consistency.py); the local one is the robot's plus 2 cm of margin.
+    assert loc.footprint.inscribed_radius == pytest.approx(0.33)
+    assert g.footprint.inscribed_radius == pytest.approx(0.365)
 
 
 @pytest.mark.parametrize("fname,ns,key,value,match", [

@@ -235,9 +235,10 @@ class Footprint:
     a polygon takes precedence over robot_radius, as in costmap_2d.
     """
 
-    def __init__(self, polygon, is_circle=False, radius=None):
+    def __init__(self, polygon, is_circle=False, radius=None, padding=0.0):
         self.polygon = np.asarray(polygon, dtype=np.float64)
         self.is_circle = bool(is_circle)
+        self.padding = float(padding)  # [m] footprint_padding already added to polygon
         self.inscribed_radius, self.circumscribed_radius = footprint_radii(self.polygon)
         if is_circle:
             self.inscribed_radius = self.circumscribed_radius = float(radius)
@@ -247,11 +248,11 @@ class Footprint:
         """footprint: polygon (list or string) [m] or None; robot_radius [m]; footprint_padding [m]."""
         if footprint is not None and not (isinstance(footprint, (list, tuple, str, np.ndarray))
                                           and len(footprint) == 0):
-            return cls(pad_footprint(parse_footprint(footprint), padding))
+            return cls(pad_footprint(parse_footprint(footprint), padding), padding=padding)
         if robot_radius is None or not (robot_radius > 0):
             raise CostmapError(f"need a footprint polygon or robot_radius > 0, got {robot_radius!r}")
         r = float(robot_radius) + float(padding)
-        return cls(circle_footprint(r), is_circle=True, radius=r)
+        return cls(circle_footprint(r), is_circle=True, radius=r, padding=padding)
 
     def oriented(self, x, y, yaw):
         """The polygon placed at pose (x [m], y [m], yaw [rad]) -> (N, 2) [m]."""

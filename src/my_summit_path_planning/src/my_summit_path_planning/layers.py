@@ -300,6 +300,37 @@ def raytrace_reference(x0, y0, x1, y1):
     return cells
 
 
+def cells_inside_convex(polygon, grid, inset, whole_cells=False):
+    """(rows, cols) of the grid cells whose centres lie at least inset [m] inside a convex
+    polygon (N, 2) [m] (either winding); with whole_cells, whose whole squares do (each
+    edge's inset grows by the square's half-extent along the edge normal, res/2 x
+    (|nx| + |ny|)). Cells off the grid are left out."""
+    poly = np.asarray(polygon, dtype=np.float64)
+    res = grid.resolution
+    lo = np.floor((poly.min(axis=0) - (grid.origin_x, grid.origin_y)) / res).astype(np.int64)
+    hi = np.ceil((poly.max(axis=0) - (grid.origin_x, grid.origin_y)) / res).astype(np.int64)
+    x0, y0 = max(0, int(lo[0])), max(0, int(lo[1]))
+    x1, y1 = min(grid.size_x, int(hi[0]) + 1), min(grid.size_y, int(hi[1]) + 1)
+    if x0 >= x1 or y0 >= y1 or len(poly) < 3:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    my, mx = np.mgrid[y0:y1, x0:x1]
+    cx = grid.origin_x + (mx + 0.5) * res
+    cy = grid.origin_y + (my + 0.5) * res
+    a, b = poly, np.roll(poly, -1, axis=0)
+    area2 = float(np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]))  # > 0: counter-clockwise
+    inside = np.ones(cx.shape, dtype=bool)
+    for (ax, ay), (bx, by) in zip(a, b):
+        ex, ey = bx - ax, by - ay
+        n = math.hypot(ex, ey)
+        if n == 0.0:
+            continue
+        # Signed distance to the edge's line, positive on the polygon's side.
+        d = (ex * (cy - ay) - ey * (cx - ax)) / n * (1.0 if area2 > 0 else -1.0)
+        square = 0.5 * res * (abs(ex) + abs(ey)) / n if whole_cells else 0.0
+        inside &= d >= inset + square - 1e-9  # [m] a square flush with an edge counts
+    return my[inside], mx[inside]
+
+
 class ObstacleLayer(Layer):
     """Obstacles seen by the sensors (costmap_2d::ObstacleLayer), in its own grid.
 
@@ -442,8 +473,15 @@ class ObstacleLayer(Layer):
 
     def update_costs(self, master, window):
         if self._footprint_xy is not None:
-            poly = (self._footprint_xy - np.array([self.grid.origin_x, self.grid.origin_y])) / self.grid.resolution
-            cv2.fillConvexPoly(self.grid.data, np.round(poly - 0.5).astype(np.int32), FREE_SPACE)
+            # Ours, stricter than costmap_2d (which rasterizes the padded footprint with
+            # its outline): only cells wholly under the robot's unpadded body are cleared.
+            # A wall cell the outline merely grazes is a wall the robot brushes past; with
+            # it cleared, DWA saw a few centimetres of room that were not there and drove
+            # into the wall (willow-full exploration). A real obstacle cannot lie wholly
+            # under the body, so nothing real is lost.
+            my, mx = cells_inside_convex(self._footprint_xy, self.grid, self.layered.footprint.padding,
+                                         whole_cells=True)
+            self.grid.data[my, mx] = FREE_SPACE
         x0, y0, x1, y1 = window
         src = self.grid.data[y0:y1, x0:x1]
         dst = master.data[y0:y1, x0:x1]
