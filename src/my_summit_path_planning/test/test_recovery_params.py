@@ -9,7 +9,8 @@ import pytest
 import yaml
 
 from my_summit_path_planning import cost_values as cv
-from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
+from my_summit_path_planning.costmap import Costmap2D, Footprint, LayeredCostmap
+from my_summit_path_planning.dwa import escape_limit, recovery_limit
 from my_summit_path_planning.layers import scan_to_observation
 from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
 from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TYPE, BackUpRecovery,
@@ -18,6 +19,8 @@ from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TY
                                               retrace_distance)
 
 CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
+SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
+SUMMIT_UNPADDED = Footprint.from_params(SUMMIT_FOOTPRINT)
 
 
 def _with_obstacles(footprint):
@@ -108,6 +111,36 @@ def test_back_up_recovery_backs_up_and_stops_where_it_would_hit(footprint):
     assert step.done and not step.ok and "in 2 s" in step.reason
     with pytest.raises(ValueError, match="backup_dist"):
         BackUpRecovery(footprint, backup_dist=-0.3)
+
+
+def test_recoveries_move_a_robot_left_inside_its_padding():
+    """DWA's escape mode may leave the robot inside footprint_padding (clearance < 0, the
+    real body a centimetre from a wall): back_up and rotate_recovery still move it, as far
+    as the escape limit (never past the unpadded body's edge). Held to clearance >= 0,
+    back_up stopped at once and the robot was stuck (willow-full exploration)."""
+    padded = Footprint.from_params(SUMMIT_FOOTPRINT, padding=0.02)
+    assert escape_limit(0.0, 0.02) == pytest.approx(-0.01)      # ESCAPE_TOL below the floor
+    assert escape_limit(-0.015, 0.02) == pytest.approx(-0.02)   # not past the unpadded edge
+    assert escape_limit(-0.03, 0.02) == pytest.approx(-0.031)   # already past it: ESCAPE_SLACK
+    assert escape_limit(-0.005, 0.0) == pytest.approx(-0.015)   # no padding: no margin kept
+    assert recovery_limit(0.03, 0.02) == 0.0 and recovery_limit(0.0, 0.0) == pytest.approx(-0.001)
+    assert recovery_limit(-0.015, 0.02) == pytest.approx(-0.02)
+    assert recovery_limit(-0.005, 0.0) == pytest.approx(-0.006)
+    wall = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    wall.data[57, :] = cv.LETHAL_OBSTACLE                 # cells y in [0.35, 0.40)
+    pose = (0.0, 0.025, 0.0)                              # left side at 0.335: 1.5 cm from the wall
+    step, end = _back_up(BackUpRecovery(padded), wall, pose)
+    assert step.done and step.ok and re.fullmatch(r"backed up 0\.(29|30) m", step.reason), step.reason
+    # Behind the robot the wall comes 2 cm nearer: it stops before its body would touch.
+    wall.data[56, :38] = cv.LETHAL_OBSTACLE              # x < -0.6 m: cells y in [0.30, 0.35)
+    wall.data[57, :38] = cv.FREE_SPACE
+    step, end = _back_up(BackUpRecovery(padded), wall, (0.0, -0.015, 0.0))
+    assert step.done and step.ok and "backing up further would hit" in step.reason
+    assert -0.3 < end[0] < -0.05 and not footprint_hits_costmap(wall, SUMMIT_UNPADDED, end)
+    # Turning on the spot swings the corners into the wall: stopped, but it may try.
+    rot = RotateRecovery(padded)
+    rot.start(pose)
+    assert not rot.step(pose, (0.0, 0.0, 0.0), wall).ok
 
 
 def test_back_up_recovery_only_retraces_the_way_the_robot_came(footprint):

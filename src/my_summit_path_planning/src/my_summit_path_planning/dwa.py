@@ -54,7 +54,8 @@ Failure modes handled on purpose:
 - Start inside the inscribed zone (real DWA rejects every trajectory and the robot
   never moves): the current pose's clearance c0 < 0 switches to escape mode, where
   trajectories are valid if their clearance never drops below min(c0, 0) by more than
-  ESCAPE_TOL (the clearance along a wall of laser-marked cells wobbles by millimetres),
+  ESCAPE_TOL (the clearance along a wall of laser-marked cells wobbles by millimetres)
+  nor past the unpadded footprint's edge (escape_limit: footprint_padding is the margin),
   and slow reversing (down to -ESCAPE_VEL_X) is sampled too, where it regains clearance
   or goes back along the plan: a robot stopped nose-in or parallel against a wall has no
   forward motion that does not cut into its clearance, and a robot in a narrow gap whose
@@ -500,6 +501,27 @@ def obstacle_distance(costmap):
                                  cv2.DIST_MASK_PRECISE) * costmap.resolution
 
 
+def escape_limit(floor, padding):
+    """The lowest clearance [m] escape mode lets a trajectory reach, from its clearance
+    floor [m] (at most 0): ESCAPE_TOL below it, for the millimetres the clearance along a
+    wall of laser-marked cells wobbles by, but with a footprint_padding > 0 [m] never past
+    the unpadded footprint's edge (-padding): the padding is the margin that keeps the
+    robot's acceleration ramp and command latency off the wall. A robot already past that
+    edge may lose only ESCAPE_SLACK. With no padding there is no margin to keep (the
+    robot may graze walls by up to ESCAPE_TOL)."""
+    if padding <= 0.0:
+        return floor - ESCAPE_TOL
+    return max(floor - ESCAPE_TOL, min(-padding, floor - ESCAPE_SLACK))
+
+
+def recovery_limit(c0, padding):
+    """The lowest clearance [m] a recovery's motion (rotate_recovery, back_up) may reach
+    from a pose of clearance c0 [m]: 0, or from inside footprint_padding [m] (c0 < 0)
+    ESCAPE_TOL lower but not past the unpadded footprint's edge, and never more than
+    ESCAPE_SLACK below c0 once past it."""
+    return min(0.0, max(c0 - ESCAPE_TOL, -padding), c0 - ESCAPE_SLACK)
+
+
 def footprint_checks(footprint):
     """(covers, corners) for footprint_clearance: the footprint's axis circles and grid
     circles, and its polygon's corners (None for a round robot, which has none)."""
@@ -819,7 +841,8 @@ class DWAPlanner:
         next_clear = self._footprint_clearance(dist_obs, costmap, nx[:, 0], ny[:, 0], nth[:, 0])
         min_clear = np.minimum(np.where(checked, clearance, np.inf).min(axis=1), next_clear)
         if escape:
-            loses = min_clear < floor - ESCAPE_TOL
+            lowest = escape_limit(floor, self.footprint.padding)
+            loses = min_clear < lowest
             # Creeping out (forward or turning on the spot, at most ESCAPE_VEL_X; backing
             # up has its own rules below) needs room only to stop: the next cycle plans
             # again from where this one leaves the robot (Fox et al.'s admissible
@@ -832,7 +855,7 @@ class DWAPlanner:
             creep = (np.hypot(samples[:, 0], samples[:, 1]) <= ESCAPE_VEL_X + EPS) & (samples[:, 0] >= 0.0)
             short = steps < np.minimum(n_check, n_brake)[:, None]
             min_short = np.minimum(np.where(short, clearance, np.inf).min(axis=1), next_clear)
-            crept = creep & loses & (min_short >= max(floor - ESCAPE_TOL, min(c0, ESCAPE_SLACK)))
+            crept = creep & loses & (min_short >= max(lowest, min(c0, ESCAPE_SLACK)))
             loses &= ~crept
             checked = np.where(crept[:, None], short, checked)
         centre_checked = checked

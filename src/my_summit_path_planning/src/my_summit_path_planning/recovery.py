@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .dwa import footprint_checks, footprint_clearance, obstacle_distance
+from .dwa import footprint_checks, recovery_limit, footprint_clearance, obstacle_distance
 
 DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
@@ -90,15 +90,21 @@ class ClearCostmapRecovery:
         return RecoveryStep(done=True)
 
 
-def footprint_free(footprint, costmap, x, y, th):
-    """The footprint at every pose (arrays x, y [m], th [rad]) keeps clearance >= 0 from the
-    lethal and unknown cells (DWA's footprint_clearance: axis circles, refined by the grid
-    circles and the corners near obstacles)."""
+def footprint_free(footprint, costmap, pose, x, y, th):
+    """The footprint at every pose (arrays x, y [m], th [rad]) of a motion from pose
+    (x, y, yaw) keeps its clearance from the lethal and unknown cells (DWA's
+    footprint_clearance: axis circles, refined by the grid circles and the corners near
+    obstacles): >= 0, or from a pose already inside footprint_padding, down to
+    dwa.recovery_limit. Held to >= 0 there, a robot that DWA's escape mode had left a
+    centimetre from a wall could neither back up nor turn at all."""
     dist = obstacle_distance(costmap)
     if dist is None:
         return True
     covers, corners = footprint_checks(footprint)
-    return bool((footprint_clearance(dist, costmap, x, y, th, covers, corners) >= 0.0).all())
+    c0 = float(footprint_clearance(dist, costmap, np.array(float(pose[0])), np.array(float(pose[1])),
+                                   np.array(float(pose[2])), covers, corners))
+    limit = recovery_limit(c0, footprint.padding)
+    return bool((footprint_clearance(dist, costmap, x, y, th, covers, corners) >= limit).all())
 
 
 class RotateRecovery:
@@ -155,7 +161,8 @@ class RotateRecovery:
         n = max(1, int(math.ceil(angle / step)))
         sign = 1.0 if angle >= 0 else -1.0
         ths = pose[2] + sign * abs(angle) * np.arange(1, n + 1) / n
-        return footprint_free(self.footprint, costmap, np.full(n, float(pose[0])), np.full(n, float(pose[1])), ths)
+        return footprint_free(self.footprint, costmap, pose, np.full(n, float(pose[0])), np.full(n, float(pose[1])),
+                              ths)
 
 
 class BackUpRecovery:
@@ -237,7 +244,7 @@ class BackUpRecovery:
         back (every sim_granularity, DWA's footprint_clearance)."""
         n = max(1, int(math.ceil(dist / self.sim_granularity)))
         back = dist * np.arange(1, n + 1) / n
-        return footprint_free(self.footprint, costmap, pose[0] - back * math.cos(pose[2]),
+        return footprint_free(self.footprint, costmap, pose, pose[0] - back * math.cos(pose[2]),
                               pose[1] - back * math.sin(pose[2]), np.full(n, float(pose[2])))
 
 
