@@ -201,9 +201,9 @@ def test_config_files_load():
     assert [l.name for l in g.layers] == ["static_layer", "obstacle_layer", "inflation_layer"]
     assert loc.rolling_window and loc.master.size_x == 140
     # The global footprint is padded so that the planner keeps DWA's room (see
-    # test_planner_dwa_consistency.py); the local one is the robot's plus 2 cm of margin.
-    assert loc.footprint.inscribed_radius == pytest.approx(0.33)
-    assert g.footprint.inscribed_radius == pytest.approx(0.365)
+    # test_planner_dwa_consistency.py); the local one is the robot's plus 1 cm of margin.
+    assert loc.footprint.inscribed_radius == pytest.approx(0.32)
+    assert g.footprint.inscribed_radius == pytest.approx(0.355)
 
 
 @pytest.mark.parametrize("fname,ns,key,value,match", [
