@@ -20,7 +20,6 @@ from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TY
 
 CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
 SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
-SUMMIT_UNPADDED = Footprint.from_params(SUMMIT_FOOTPRINT)
 
 
 def _with_obstacles(footprint):
@@ -113,7 +112,7 @@ def test_back_up_recovery_backs_up_and_stops_where_it_would_hit(footprint):
         BackUpRecovery(footprint, backup_dist=-0.3)
 
 
-def test_recoveries_move_a_robot_left_inside_its_padding():
+def test_recoveries_move_a_robot_left_inside_its_padding(footprint):
     """DWA's escape mode may leave the robot inside footprint_padding (clearance < 0, the
     real body a centimetre from a wall): back_up and rotate_recovery still move it, as far
     as the escape limit (never past the unpadded body's edge). Held to clearance >= 0,
@@ -136,7 +135,7 @@ def test_recoveries_move_a_robot_left_inside_its_padding():
     wall.data[57, :38] = cv.FREE_SPACE
     step, end = _back_up(BackUpRecovery(padded), wall, (0.0, -0.015, 0.0))
     assert step.done and step.ok and "backing up further would hit" in step.reason
-    assert -0.3 < end[0] < -0.05 and not footprint_hits_costmap(wall, SUMMIT_UNPADDED, end)
+    assert -0.3 < end[0] < -0.05 and not footprint_hits_costmap(wall, footprint, end)
     # Turning on the spot swings the corners into the wall: stopped, but it may try.
     rot = RotateRecovery(padded)
     rot.start(pose)

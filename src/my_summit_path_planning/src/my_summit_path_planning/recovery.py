@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .dwa import footprint_checks, recovery_limit, footprint_clearance, obstacle_distance
+from .dwa import footprint_checks, footprint_clearance, obstacle_distance, recovery_limit
 
 DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
@@ -101,10 +101,10 @@ def footprint_free(footprint, costmap, pose, x, y, th):
     if dist is None:
         return True
     covers, corners = footprint_checks(footprint)
-    c0 = float(footprint_clearance(dist, costmap, np.array(float(pose[0])), np.array(float(pose[1])),
-                                   np.array(float(pose[2])), covers, corners))
-    limit = recovery_limit(c0, footprint.padding)
-    return bool((footprint_clearance(dist, costmap, x, y, th, covers, corners) >= limit).all())
+    # One pass over the start pose (first) and the motion's poses.
+    clear = footprint_clearance(dist, costmap, np.append(float(pose[0]), x), np.append(float(pose[1]), y),
+                                np.append(float(pose[2]), th), covers, corners)
+    return bool((clear[1:] >= recovery_limit(float(clear[0]), footprint.padding)).all())
 
 
 class RotateRecovery:
