@@ -110,3 +110,24 @@ def test_stuck_watch_tells_a_stuck_robot_from_unreachable_goals():
     # stuck_goals 0: never stuck
     w = fr.StuckWatch(goals=0)
     assert not any(w.given_up((0.0, 0.0)) for _ in range(5))
+
+
+def test_a_frontier_behind_the_robot_is_not_in_view():
+    # the laser sees +-135 deg; in_view keeps +-110 deg
+    assert fr.in_view((0.0, 0.0, 0.0), (2.0, 0.5))
+    assert fr.in_view((0.0, 0.0, 0.0), (-0.5, 2.0))             # 104 deg to the left
+    assert not fr.in_view((0.0, 0.0, 0.0), (-2.0, 0.3))         # behind
+    assert not fr.in_view((0.0, 0.0, math.pi / 2), (0.3, -2.0))  # behind a robot facing +y
+    assert fr.in_view((0.0, 0.0, math.pi), (-2.0, 0.3))         # turned round: ahead
+    assert fr.in_view((0.0, 0.0, 3.1), (-2.0, -0.1))            # across the +-pi seam
+    assert fr.in_view((1.0, 1.0, 0.0), (1.0, 1.0))              # on the robot
+
+
+def test_goal_heading_faces_a_frontier_travel_would_leave_behind():
+    # the frontier ahead of the way there: arrive heading the way the robot drives
+    assert math.isclose(fr.goal_heading((0.0, 0.0), (3.0, 0.0), (3.5, 0.5)), 0.0)
+    # the spawn's rear wedge: the goal 0.1 m ahead, its frontier 1.5 m behind: face it
+    yaw = fr.goal_heading((0.0, 0.0), (0.1, 0.0), (-1.4, 0.2))
+    assert abs(math.remainder(yaw - math.atan2(0.2, -1.5), 2 * math.pi)) < 1e-9
+    # a frontier off to the side within view (90 deg): still the travel heading
+    assert math.isclose(fr.goal_heading((0.0, 0.0), (2.0, 0.0), (2.0, 1.5)), 0.0)

@@ -190,6 +190,33 @@ def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), 
     return out
 
 
+# [rad] half the angle round the robot's heading that the laser sees with some room to
+# spare: the Hokuyo's 270 deg field of view is +-135 deg; a frontier within +-110 deg of the
+# heading is in view. Behind the robot (the 90 deg it does not see) it is not.
+VIEW_HALF_ANGLE = math.radians(110.0)
+
+
+def in_view(pose, point, half_angle=VIEW_HALF_ANGLE):
+    """True when point (x, y) lies within half_angle of the heading of pose (x, y, yaw):
+    the laser, looking forward, sees it. A point on the robot counts as in view."""
+    dx, dy = point[0] - pose[0], point[1] - pose[1]
+    if math.hypot(dx, dy) < 1e-6:
+        return True
+    return abs(math.remainder(math.atan2(dy, dx) - pose[2], 2 * math.pi)) <= half_angle
+
+
+def goal_heading(robot_xy, goal, centroid, half_angle=VIEW_HALF_ANGLE):
+    """The yaw of a frontier goal: the way the robot drives there (no turn on the spot
+    beside a wall at the end), unless the frontier's centroid would then lie outside the
+    laser's view from the goal; then facing the centroid. A goal next to the robot
+    (the frontier behind it at the start: the laser does not see its rear 90 deg) is where
+    this matters: arriving heading the way it happened to move, it would never look."""
+    travel = math.atan2(goal[1] - robot_xy[1], goal[0] - robot_xy[0])
+    if in_view((goal[0], goal[1], travel), centroid, half_angle):
+        return travel
+    return math.atan2(centroid[1] - goal[1], centroid[0] - goal[0])
+
+
 class StuckWatch:
     """Tells a stuck robot from unreachable frontiers (explore_lite cannot: it blacklists
     every goal the robot makes no progress towards). `goals` goals in a row given up while
