@@ -7,8 +7,9 @@ Reads move_base's global costmap (on slam_gmapping's growing map), picks the che
 frontier (my_summit_navigation.frontiers: potential_scale x travel distance - gain_scale
 x size), sends move_base a goal there and repeats at planner_frequency. A goal move_base
 aborts, or one with no progress for progress_timeout, is blacklisted; one the robot comes
-within REACHED of, its frontier in the laser's view, counts as reached. When no frontier is left (or none can be reached, or
-the robot is stuck) it stops, says so, and saves the map.
+within REACHED of, its frontier in the laser's view, counts as reached. When no frontier
+is left (or none can be reached, or the robot is stuck) it stops, says so, and saves the
+map.
 
   action client of move_base (move_base_msgs/MoveBaseAction)
   sub   ~costmap_topic (default move_base/global_costmap/costmap, nav_msgs/OccupancyGrid)
@@ -43,6 +44,7 @@ from nav_msgs.msg import OccupancyGrid
 from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Bool, String
 
+from my_summit_mapping.map_msgs import quaternion_to_yaw
 from my_summit_navigation import frontiers as fr
 from my_summit_navigation.patrol_logic import ProgressWatch
 
@@ -108,9 +110,7 @@ class Explore:
         """(x, y, yaw) of the robot in the costmap's frame."""
         tr = self.tf.lookup_transform(self.costmap.header.frame_id, self.base_frame, rospy.Time(0),
                                       rospy.Duration(1.0)).transform
-        q = tr.rotation
-        yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-        return tr.translation.x, tr.translation.y, yaw
+        return tr.translation.x, tr.translation.y, quaternion_to_yaw(tr.rotation)
 
     def send(self, frontier, robot):
         gx, gy = frontier.goal

@@ -34,6 +34,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Empty, Trigger, TriggerResponse
 
 from my_summit_localization.spots import Spot
+from my_summit_mapping.map_msgs import quaternion_to_yaw
 from my_summit_navigation import patrol_logic as pl
 from my_summit_navigation.goals import move_base_goal
 from my_summit_navigation.spot_goals import STATE_NAMES, SpotBook
@@ -119,9 +120,7 @@ class Patrol:
 
     def start_pose(self):
         t = self.tf.lookup_transform(self.frame, "base_footprint", rospy.Time(0), rospy.Duration(30.0)).transform
-        q = t.rotation
-        yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-        return Spot.from_xy_yaw(t.translation.x, t.translation.y, yaw)
+        return Spot.from_xy_yaw(t.translation.x, t.translation.y, quaternion_to_yaw(t.rotation))
 
     def resolve_home(self):
         home = rospy.get_param("~home", None)
