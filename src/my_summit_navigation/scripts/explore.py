@@ -6,10 +6,11 @@
 Reads move_base's global costmap (on slam_gmapping's growing map), picks the cheapest
 frontier (my_summit_navigation.frontiers: potential_scale x travel distance - gain_scale
 x size), sends move_base a goal there and repeats at planner_frequency. A goal move_base
-aborts, or one with no progress for progress_timeout, is blacklisted; one the robot comes
-within REACHED of, its frontier in the laser's view, counts as reached. When no frontier
-is left (or none can be reached, or the robot is stuck) it stops, says so, and saves the
-map.
+aborts, or one with no progress for progress_timeout, is blacklisted (the timer runs on
+when the choice flips back to a goal it was driving to moments ago: frontiers.GoalProgress);
+one the robot comes within REACHED of, its frontier in the laser's view, counts as
+reached. When no frontier is left (or none can be reached, or the robot is stuck) it
+stops, says so, and saves the map.
 
   action client of move_base (move_base_msgs/MoveBaseAction)
   sub   ~costmap_topic (default move_base/global_costmap/costmap, nav_msgs/OccupancyGrid)
@@ -46,7 +47,6 @@ from std_msgs.msg import Bool, String
 
 from my_summit_mapping.map_msgs import quaternion_to_yaw
 from my_summit_navigation import frontiers as fr
-from my_summit_navigation.patrol_logic import ProgressWatch
 
 SUCCEEDED, ABORTED = 3, 4
 # [m] this near the goal counts as there: what can be seen from it has been seen. Beside a
@@ -82,7 +82,8 @@ class Explore:
         self.goal = None            # (x, y) of the active goal
         self.goal_centroid = None   # (x, y) of its frontier's centroid
         self.goal_state = None
-        self.progress = ProgressWatch(self.progress_timeout)   # per goal: no progress for progress_timeout
+        # no progress for progress_timeout towards a goal, kept across goal switches
+        self.progress = fr.GoalProgress(self.progress_timeout, same=SAME_GOAL)
         self.sent = 0
         self.failed = 0             # goals aborted or without progress
         self.empty_rounds = 0       # planning rounds in a row that found no frontier
@@ -126,11 +127,11 @@ class Explore:
         with self.lock:
             self.goal, self.goal_state = (gx, gy), None
             self.goal_centroid = frontier.centroid
-        self.progress.reset(rospy.Time.now().to_sec())
+        again = self.progress.start((gx, gy), rospy.Time.now().to_sec())
         self.sent += 1
         self.client.send_goal(goal, done_cb=self._on_done)
         rospy.loginfo(f"explore: goal {self.sent}: frontier of {frontier.size:.1f} m at ({gx:.2f}, {gy:.2f}), "
-                      f"{frontier.distance:.1f} m away")
+                      f"{frontier.distance:.1f} m away" + (" (again: its progress timer runs on)" if again else ""))
 
     def give_up_goal(self, why, robot, no_progress=False):
         """Blacklist the active goal; returns the reason exploration is over when the

@@ -131,3 +131,35 @@ def test_goal_heading_faces_a_frontier_travel_would_leave_behind():
     assert abs(math.remainder(yaw - math.atan2(0.2, -1.5), 2 * math.pi)) < 1e-9
     # a frontier off to the side within view (90 deg): still the travel heading
     assert math.isclose(fr.goal_heading((0.0, 0.0), (2.0, 0.0), (2.0, 1.5)), 0.0)
+
+
+def test_goal_progress_survives_a_flickering_choice_of_goals():
+    p = fr.GoalProgress(timeout=30.0, same=0.5)
+    # goals A and B alternate every 2 s, the robot going nowhere: A keeps its watch and
+    # is given up 30 s after its first send, not never
+    a, b = (5.0, 0.0), (-50.0, 0.0)
+    t, stuck = 0.0, False
+    while t < 60.0 and not stuck:
+        for goal in (a, b):
+            p.start((goal[0] + 0.2, goal[1]) if t > 0 and goal is a else goal, t)
+            stuck = p.update(5.0 if goal is a else 50.0, t)
+            if stuck:
+                break
+            t += 2.0
+    assert stuck and p.active[0] == a and 30.0 < t <= 34.0
+    # progress on A resets A's timer only
+    p = fr.GoalProgress(timeout=30.0)
+    assert not p.start(a, 0.0)
+    assert not p.update(5.0, 0.0)
+    assert not p.start(b, 1.0)
+    assert p.start((5.3, 0.1), 20.0)            # A again, 0.32 m off: the same watch
+    assert not p.update(4.0, 25.0)              # 1 m closer: progress at 25 s
+    assert not p.update(4.0, 50.0)
+    assert p.update(4.0, 56.0)
+    # an earlier goal sent again after more than timeout inactive starts afresh
+    p = fr.GoalProgress(timeout=30.0)
+    p.start(a, 0.0)
+    p.update(5.0, 10.0)
+    p.start(b, 11.0)
+    assert not p.start(a, 100.0)
+    assert not p.update(5.0, 100.0) and not p.update(5.0, 129.0)

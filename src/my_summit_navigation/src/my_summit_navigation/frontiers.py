@@ -245,6 +245,48 @@ class StuckWatch:
         return self.goals > 0 and len(self.where) >= self.goals
 
 
+class GoalProgress:
+    """Progress towards the active goal, remembered across goal switches.
+
+    explore_lite restarts its progress timer with every goal it sends. When a choke
+    point flickers between passable and inscribed as the map updates, the cheapest
+    frontier flips between a goal through the choke and one far round it, every planning
+    round: each send restarted the timer, so neither goal was ever given up, and on
+    willow-full the robot dithered for about 300 s. Here a goal within `same` [m] of one
+    that was active less than `timeout` [s] ago keeps that goal's best distance and the
+    time of its last progress; any other goal starts afresh. Progress is `min_progress`
+    [m] closer than the best so far (patrol_logic.ProgressWatch's rule)."""
+
+    def __init__(self, timeout=30.0, same=0.5, min_progress=0.1):
+        self.timeout = float(timeout)
+        self.same = float(same)
+        self.min_progress = float(min_progress)
+        self.goals = []       # [goal (x, y), best distance, time of progress, time last active]
+        self.active = None
+
+    def start(self, goal, now):
+        """The goal is sent at time now; True when it continues an earlier goal's watch."""
+        self.goals = [g for g in self.goals if now - g[3] <= self.timeout]
+        for g in self.goals:
+            if math.hypot(goal[0] - g[0][0], goal[1] - g[0][1]) <= self.same:
+                g[3] = now
+                self.active = g
+                return True
+        self.active = [tuple(goal), math.inf, now, now]
+        self.goals.append(self.active)
+        return False
+
+    def update(self, distance, now):
+        """The robot's distance to the active goal at time now; True once no progress
+        for timeout."""
+        g = self.active
+        g[3] = now
+        if distance < g[1] - self.min_progress or g[1] == math.inf:
+            g[1], g[2] = distance, now
+            return False
+        return self.timeout > 0 and now - g[2] > self.timeout
+
+
 def explored_share(known, reachable_free):
     """Share of the reachable free cells (bool mask) that are known (bool mask, same
     grid), a known cell counting for its 8 neighbours too (one cell of registration)."""
