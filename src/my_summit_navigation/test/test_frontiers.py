@@ -136,26 +136,36 @@ def test_goal_heading_faces_a_frontier_travel_would_leave_behind():
 def test_goal_progress_survives_a_flickering_choice_of_goals():
     p = fr.GoalProgress(timeout=30.0, same=0.5)
     # goals A and B alternate every 2 s, the robot going nowhere: A keeps its watch and
-    # is given up 30 s after its first send, not never
+    # is given up after 30 s of being active (60 s), not never
     a, b = (5.0, 0.0), (-50.0, 0.0)
     t, stuck = 0.0, False
-    while t < 60.0 and not stuck:
+    while t < 90.0 and not stuck:
         for goal in (a, b):
             p.start((goal[0] + 0.2, goal[1]) if t > 0 and goal is a else goal, t)
             stuck = p.update(5.0 if goal is a else 50.0, t)
             if stuck:
                 break
             t += 2.0
-    assert stuck and p.active[0] == a and 30.0 < t <= 34.0
-    # progress on A resets A's timer only
+    assert stuck and p.active[0] == a and 60.0 < t <= 66.0
+    # the time B was active does not count for A
     p = fr.GoalProgress(timeout=30.0)
     assert not p.start(a, 0.0)
     assert not p.update(5.0, 0.0)
-    assert not p.start(b, 1.0)
-    assert p.start((5.3, 0.1), 20.0)            # A again, 0.32 m off: the same watch
-    assert not p.update(4.0, 25.0)              # 1 m closer: progress at 25 s
-    assert not p.update(4.0, 50.0)
-    assert p.update(4.0, 56.0)
+    assert not p.update(5.0, 10.0)
+    assert not p.start(b, 10.0)
+    assert not p.update(50.0, 25.0)
+    assert p.start((5.3, 0.1), 25.0)            # A again, 0.32 m off: the same watch
+    assert not p.update(5.0, 44.0)              # 10 s + 19 s active without progress
+    assert p.update(5.0, 46.0)                  # 31 s
+    # progress on A resets A's clock
+    p = fr.GoalProgress(timeout=30.0)
+    p.start(a, 0.0)
+    p.update(5.0, 0.0)
+    p.start(b, 1.0)
+    assert p.start((5.3, 0.1), 1.0)
+    assert not p.update(4.0, 5.0)               # 1 m closer: progress at 5 s
+    assert not p.update(4.0, 30.0)
+    assert p.update(4.0, 36.0)
     # an earlier goal sent again after more than timeout inactive starts afresh
     p = fr.GoalProgress(timeout=30.0)
     p.start(a, 0.0)

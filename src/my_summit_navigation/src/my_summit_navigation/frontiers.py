@@ -253,23 +253,30 @@ class GoalProgress:
     frontier flips between a goal through the choke and one far round it, every planning
     round: each send restarted the timer, so neither goal was ever given up, and on
     willow-full the robot dithered for about 300 s. Here a goal within `same` [m] of one
-    that was active less than `timeout` [s] ago keeps that goal's best distance and the
-    time of its last progress; any other goal starts afresh. Progress is `min_progress`
-    [m] closer than the best so far (patrol_logic.ProgressWatch's rule)."""
+    that was active less than `timeout` [s] ago keeps that goal's best distance and its
+    clock; any other goal starts afresh. The clock runs only while its goal is active
+    (time spent driving to another goal is no failure of this one): a goal is given up
+    after `timeout` of being active without progress, `min_progress` [m] closer than the
+    best so far (patrol_logic.ProgressWatch's rule)."""
 
     def __init__(self, timeout=30.0, same=0.5, min_progress=0.1):
         self.timeout = float(timeout)
         self.same = float(same)
         self.min_progress = float(min_progress)
-        self.goals = []       # [goal (x, y), best distance, time of progress, time last active]
+        # [goal (x, y), best distance, time of progress (shifted by the time the goal was
+        # inactive), time last active]
+        self.goals = []
         self.active = None
 
     def start(self, goal, now):
         """The goal is sent at time now; True when it continues an earlier goal's watch."""
+        if self.active is not None:
+            self.active[3] = now           # the goal active till now
         self.goals = [g for g in self.goals if now - g[3] <= self.timeout]
         for g in self.goals:
             if math.hypot(goal[0] - g[0][0], goal[1] - g[0][1]) <= self.same:
-                g[3] = now
+                if g is not self.active:
+                    g[2] += now - g[3]     # its clock stood still while it was inactive
                 self.active = g
                 return True
         self.active = [tuple(goal), math.inf, now, now]
