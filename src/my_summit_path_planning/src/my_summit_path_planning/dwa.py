@@ -949,7 +949,12 @@ class DWAPlanner:
                 valid, n_valid, braking = slowest, int(slowest.sum()), True
         if n_valid == 0:
             # Which constraint rejected the samples (a sample may fail several).
-            counts = [f"{int(collides.sum())} collide" + (" (escape mode: would lose clearance)" if escape else ""),
+            # escape mode: say why (forced: ordinary DWA found nothing from a pose with
+            # clearance; else the robot is within the padding or on an inscribed cell)
+            why = ("forced, no ordinary trajectory" if c0 >= 0 and cc is not None
+                   and cc < INSCRIBED_INFLATED_OBSTACLE else f"clearance {c0:+.3f} m")
+            counts = [f"{int(collides.sum())} collide" + (f" (escape mode, {why}: would lose clearance)"
+                                                          if escape else ""),
                       f"{int(leaves.sum())} leave the local costmap", f"{int(oscillates.sum())} would "
                       "oscillate (reverse a motion just made)", f"{int(too_fast.sum())} too fast to stop at the goal"]
             counts = [c for c, m in zip(counts, (collides, leaves, oscillates, too_fast)) if m.any()]
