@@ -62,7 +62,8 @@ def one_run(world_name, pose, speed, out_dir):
     x, y, yaw = pose
     log = os.path.join(out_dir, f"explore_{world_name}_{x:.1f}_{y:.1f}.log")
     args = ["my_summit_navigation", "explore.launch", "sim:=true", f"world:={world_yaml}", f"x:={x}", f"y:={y}",
-            f"yaw:={yaw}", f"speed:={speed}", f"save_map:={os.path.splitext(log)[0]}_map"]
+            f"yaw:={yaw}", f"speed:={speed}", f"save_map:={os.path.splitext(log)[0]}_map",
+            f"debug_dump:={os.path.splitext(log)[0]}_dwa"]
     with RoslaunchSession(args, log=log) as session:
         wait_for_sim_time_param(session)
         import rospy

@@ -654,3 +654,20 @@ def test_latency_meter_longest_recent_interval():
     assert m.update(5.0) == pytest.approx(0.05)       # a pause is not latency
     m.reset()
     assert m.update(5.05) is None
+
+
+def test_planner_and_costmap_pickle_for_an_offline_replay(footprint):
+    """move_base's ~debug_dump_dir pickles the planner (plan, oscillation and escape state)
+    and the local costmap when DWA finds no command; the copy must plan as the original."""
+    import copy
+    import pickle
+    walls = [(-3.5, 0.6, 3.5, 0.7), (-3.5, -0.7, 3.5, -0.6)]
+    m = local_costmap(footprint, walls)
+    planner = DWAPlanner(DWAConfig(**CFG), footprint)
+    planner.set_plan(np.column_stack([np.linspace(-2.0, 3.0, 101), np.zeros(101)]), 0.0)
+    poses, results = run(planner, m, footprint, (-2.0, 0.05, 0.1), steps=5)
+    state = pickle.loads(pickle.dumps(copy.deepcopy({"dwa": planner, "costmap": m})))
+    vel = results[-1].cmd
+    a = planner.compute_velocity(poses[-1], vel, m)
+    b = state["dwa"].compute_velocity(poses[-1], vel, state["costmap"])
+    assert a.ok and b.ok and a.cmd == b.cmd

@@ -54,6 +54,10 @@ class MoveBaseConfig:
     oscillation_distance: float = 0.5      # [m]
     planner_frequency: float = 0.0         # [Hz] 0 = plan only on new goals
     max_planning_retries: int = -1         # -1 = unlimited
+    # ours: a folder; each time DWA finds no valid command for controller_patience, the
+    # controller's inputs (local costmap, pose, velocity, planner state) are pickled there
+    # for an offline replay (at most DEBUG_DUMPS per run). Empty: off.
+    debug_dump_dir: str = ""
 
 
 @dataclass
