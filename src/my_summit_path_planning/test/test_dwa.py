@@ -671,3 +671,29 @@ def test_planner_and_costmap_pickle_for_an_offline_replay(footprint):
     a = planner.compute_velocity(poses[-1], vel, m)
     b = state["dwa"].compute_velocity(poses[-1], vel, state["costmap"])
     assert a.ok and b.ok and a.cmd == b.cmd
+
+
+def test_replay_script_reads_a_dump_and_draws_it(footprint, tmp_path):
+    """scripts/replay_dwa_dump.py on a dump of a robot boxed in by walls: it finds what the
+    planner found live (escape mode, creeping forward) and draws the picture."""
+    import os
+    import pickle
+    import subprocess
+    import sys
+    # boxed in: walls 4 cm from either side, front and back
+    walls = [(-1.0, 0.45, 1.0, 0.55), (-1.0, -0.55, 1.0, -0.45), (0.40, -0.6, 0.5, 0.6), (-0.5, -0.6, -0.4, 0.6)]
+    m = local_costmap(footprint, walls)
+    planner = DWAPlanner(DWAConfig(**CFG), footprint)
+    planner.set_plan(np.column_stack([np.linspace(0.0, 3.0, 61), np.zeros(61)]), 0.0)
+    pose, vel = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    dump = tmp_path / "dwa_12.00.pkl"
+    dump.write_bytes(pickle.dumps({"pose": pose, "velocity": vel, "dwa": planner, "costmap": m, "stamp": 12.0}))
+    live = planner.compute_velocity(pose, vel, m)
+    script = os.path.join(os.path.dirname(__file__), "..", "scripts", "replay_dwa_dump.py")
+    png = tmp_path / "d.png"
+    out = subprocess.run([sys.executable, script, str(dump), "--png", str(png)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert live.mode == "escape" and f"mode escape, ok {live.ok}, cmd {live.cmd}," in out.stdout
+    assert png.stat().st_size > 0
+    bad = subprocess.run([sys.executable, script, str(tmp_path / "missing.pkl")], capture_output=True, text=True)
+    assert bad.returncode == 2 and "cannot read" in bad.stderr
