@@ -697,3 +697,67 @@ def test_replay_script_reads_a_dump_and_draws_it(footprint, tmp_path):
     assert png.stat().st_size > 0
     bad = subprocess.run([sys.executable, script, str(tmp_path / "missing.pkl")], capture_output=True, text=True)
     assert bad.returncode == 2 and "cannot read" in bad.stderr
+
+
+# The lethal cells (dx, dy) round the robot's cell in a move_base debug dump (willow-full
+# exploration from seed 3's start, 128.8 s): a table end beside the robot's left side.
+TABLE_END_CELLS = [
+    (5, -7), (5, -5), (6, -11), (6, -10), (6, -9), (6, -8), (6, -7), (6, -6), (6, -5),
+    (7, -17), (7, -11), (7, -10), (7, -9), (7, -8), (7, -7), (7, -6), (7, -5), (8, -25),
+    (8, -24), (8, -23), (8, -22), (8, -19), (8, -18), (8, -17), (8, -6), (8, -5), (9, -30),
+    (9, -29), (9, -27), (9, -26), (9, -25), (9, -24), (9, -23), (9, -17), (9, -16), (9, -6),
+    (9, -5), (10, -30), (10, -29), (10, -23), (10, -6), (10, -5), (10, -4), (11, -16),
+    (11, -15), (11, -14), (11, -6), (11, -5), (11, -4), (12, -16), (12, -15), (12, -6),
+    (12, -5), (12, -4), (13, -27), (13, -26), (13, -6), (13, -5), (13, -4), (14, -5), (14, -4),
+    (14, 16), (14, 17), (14, 18), (15, -26), (15, -5), (15, -4), (15, 15), (15, 16), (15, 17),
+    (15, 18), (16, -26), (16, -24), (16, -23), (16, -22), (16, -5), (16, -4), (16, 15),
+    (16, 16), (17, -26), (17, -25), (17, -24), (17, -23), (17, -22), (17, -5), (17, -4),
+    (17, -3), (17, 16), (18, -22), (18, -5), (18, -4), (18, -3), (18, 15), (18, 16), (18, 17),
+    (18, 18), (18, 19), (19, -5), (19, -4), (19, -3), (19, 13), (19, 14), (19, 15), (19, 16),
+    (19, 17), (19, 18), (19, 19), (20, -5), (20, -4), (20, -3), (20, 14), (20, 15), (20, 18),
+    (20, 19), (21, -4), (21, -3), (21, 13), (21, 14), (21, 18), (21, 19), (22, 14), (22, 15),
+    (23, 14), (23, 15), (24, 14), (24, 15), (25, 14), (26, 17), (26, 18), (26, 19), (27, 14),
+    (27, 15), (27, 16), (27, 19), (27, 20), (28, 14), (28, 15), (28, 19), (28, 20), (29, 15),
+    (29, 19), (29, 20)
+]
+
+
+def test_escape_mode_moves_a_robot_whose_clearance_is_below_the_floor(footprint):
+    """Field failure, replayed from a move_base debug dump (replay_dwa_dump.py): the robot
+    stood past its footprint_padding (0.02 m) beside a table, clearance -0.025 m, while
+    escape mode's floor (-0.0207 m, from earlier cycles) allowed no lower than -0.0217 m.
+    The floor was reset only once the clearance had fallen ESCAPE_TOL below it, so every
+    sample, starting below the limit, "would lose clearance" (166 of 166), recoveries
+    could not move it either, and exploration ended "the robot is stuck" (56% of the
+    building). Now the floor starts over from the robot's clearance: it turns away from
+    the table and drives on along the plan, losing at most ESCAPE_SLACK on the way."""
+    from my_summit_path_planning.costmap import Footprint
+    from my_summit_path_planning.dwa import ESCAPE_SLACK
+    from my_summit_path_planning.navfn import resample_path
+    from conftest import SUMMIT_FOOTPRINT
+    padded = Footprint.from_params(SUMMIT_FOOTPRINT, padding=0.02)
+    res = 0.05
+    m = recorded_costmap(padded, TABLE_END_CELLS)
+    x0, y0 = -3.5 + (70 + 0.667) * res, -3.5 + (70 + 0.215) * res
+    pose = (x0, y0, -2.2813)
+    plan = resample_path(np.array([(0.0, 0.0), (-0.2, -0.08), (-0.36, -0.18), (-0.42, -0.37), (-0.44, -0.57),
+                                   (-0.4, -0.96), (-0.35, -1.36), (-0.31, -1.75), (-0.26, -2.15)]) + (x0, y0), 0.025)
+    cfg = DWAConfig(**dict(CFG, max_vel_x=0.6, max_vel_trans=0.6, max_vel_theta=1.0, goal_distance_bias=20.0,
+                           xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, padded)
+    planner.set_plan(plan, -1.45)
+    planner._escape_floor = -0.0207            # as recorded
+    clear = clearance_of(planner, m)
+    c0 = clear(pose)
+    assert -0.026 < c0 < -0.024                 # past the padding, below the floor's limit
+    first = planner.compute_velocity(pose, (0.0, 0.0, 0.0), m)
+    assert first.ok and first.mode == "escape", first.reason
+    vel, lowest = (0.0, 0.0, 0.0), c0
+    for _ in range(40):                         # 2 s
+        r = planner.compute_velocity(pose, vel, m)
+        vel = r.cmd
+        pose = advance(pose, vel)
+        lowest = min(lowest, clear(pose))
+    assert lowest >= c0 - ESCAPE_SLACK - 1e-3
+    assert clear(pose) > 0.1                    # out in the open
+    assert math.hypot(pose[0] - x0, pose[1] - y0) > 0.5, pose

@@ -741,16 +741,24 @@ class DWAPlanner:
         floor = min(c0, 0.0)
         if escape and self._escape_floor is not None:
             floor = max(floor, self._escape_floor)
-        if floor > c0 + ESCAPE_TOL:
-            # The clearance fell below the floor by more than our own motion can lose
-            # (new obstacle cells marked, odometry drift): every sample starts below the
-            # floor and none would be valid, a standstill recoveries cannot end (they
-            # keep the cells near the robot). Start over from here, with no slack to spend:
-            # the trajectories are simulated at constant velocity while the robot ramps up
-            # to it, so its own motion can fall a few millimetres short of what was
-            # checked, and a fresh ESCAPE_TOL after each such reset let it creep ever
-            # deeper (2.4 cm in a replay of a willow-full wedge).
+        if escape and escape_limit(floor, self.footprint.padding) > c0:
+            # The clearance is below what the floor allows (new obstacle cells marked,
+            # odometry drift, the robot's own motion): every sample starts below the limit
+            # and none would be valid, a standstill recoveries cannot end (they keep the
+            # cells near the robot). Start over from here, with no slack to spend (a
+            # limit ESCAPE_SLACK below c0): the trajectories are simulated at constant
+            # velocity while the robot ramps up to it, so its own motion can fall a few
+            # millimetres short of what was checked, and a fresh ESCAPE_TOL after each such
+            # reset let it creep ever deeper (2.4 cm in a replay of a willow-full wedge).
+            # Past the unpadded footprint's edge the limit is ESCAPE_SLACK below the floor
+            # itself: the floor is c0 there. (Reset only once the clearance had fallen
+            # ESCAPE_TOL below the floor, a robot past the edge by less than that stood
+            # with a limit above its own clearance: 166 of 166 samples "would lose
+            # clearance", wedged for good beside a table on willow-full, replayed from a
+            # move_base debug dump.)
             floor = c0 + ESCAPE_TOL - ESCAPE_SLACK
+            if escape_limit(floor, self.footprint.padding) > c0 - ESCAPE_SLACK + 1e-9:
+                floor = c0
         self._escape_floor = floor if escape else None
 
         # In escape mode the robot may also back up slowly: nose-in against a wall (or
