@@ -734,8 +734,7 @@ def test_escape_mode_moves_a_robot_whose_clearance_is_below_the_floor(footprint)
     from my_summit_path_planning.costmap import Footprint
     from my_summit_path_planning.dwa import ESCAPE_SLACK
     from my_summit_path_planning.navfn import resample_path
-    from conftest import SUMMIT_FOOTPRINT
-    padded = Footprint.from_params(SUMMIT_FOOTPRINT, padding=0.02)
+    padded = Footprint.from_params(footprint.polygon.tolist(), padding=0.02)   # explore.launch's
     res = 0.05
     m = recorded_costmap(padded, TABLE_END_CELLS)
     x0, y0 = -3.5 + (70 + 0.667) * res, -3.5 + (70 + 0.215) * res
