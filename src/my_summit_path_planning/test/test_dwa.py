@@ -761,3 +761,106 @@ def test_escape_mode_moves_a_robot_whose_clearance_is_below_the_floor(footprint)
     assert lowest >= c0 - ESCAPE_SLACK - 1e-3
     assert clear(pose) > 0.1                    # out in the open
     assert math.hypot(pose[0] - x0, pose[1] - y0) > 0.5, pose
+
+
+# The lethal cells (dx, dy) round the robot's cell in a move_base debug dump (willow-full
+# exploration from seed 0's start, 1047.3 s): a dead-end pocket between a wall along the
+# robot's left side, a wall a hand's width behind its tail and a table leg ahead.
+TABLE_POCKET_CELLS = [
+    (-25, -2), (-25, -1), (-24, -15), (-24, -14), (-24, -4), (-24, -3), (-24, -2), (-23,
+    -16), (-23, -15), (-23, -14), (-23, -4), (-23, -3), (-23, -2), (-22, -16), (-22, -15),
+    (-22, -14), (-18, 26), (-18, 27), (-17, 15), (-17, 16), (-17, 25), (-17, 26), (-17, 27),
+    (-17, 28), (-16, 15), (-16, 16), (-16, 17), (-16, 26), (-16, 27), (-16, 28), (-16, 29),
+    (-15, 15), (-15, 16), (-15, 17), (-15, 28), (-15, 29), (-14, 29), (-12, 18), (-12, 19),
+    (-11, 16), (-11, 20), (-10, 16), (-10, 20), (-9, -8), (-9, -7), (-9, -6), (-9, -5), (-9,
+    13), (-9, 14), (-9, 18), (-8, -9), (-8, -8), (-8, -7), (-8, -6), (-8, -5), (-8, 11),
+    (-8, 14), (-8, 16), (-7, -5), (-7, 11), (-7, 12), (-7, 13), (-7, 15), (-6, 10), (-6,
+    11), (-6, 12), (-6, 13), (-5, 12), (-5, 13), (-5, 14), (-4, 12), (-4, 13), (-4, 14),
+    (-3, 12), (-3, 13), (-3, 14), (-2, 11), (-2, 12), (-2, 13), (-2, 14), (-1, 11), (-1,
+    12), (-1, 13), (-1, 14), (0, 11), (0, 12), (0, 13), (2, 10), (2, 11), (3, 10), (3, 11),
+    (3, 12), (3, 13), (4, 10), (4, 11), (4, 12), (5, 10), (5, 11), (5, 12), (6, 9), (6, 10),
+    (6, 11), (7, 9), (7, 10), (7, 11), (8, 9), (8, 10), (8, 11), (9, 9), (9, 10), (9, 11),
+    (10, 9), (10, 10), (10, 11), (11, -10), (11, -4), (11, -3), (11, -2), (11, 9), (11, 10),
+    (12, -10), (12, -9), (12, -8), (12, -7), (12, -3), (12, -2), (12, -1), (12, 0), (12, 1),
+    (12, 8), (12, 9), (13, -12), (13, -9), (13, -8), (13, -7), (13, -6), (13, -5), (13, -1),
+    (13, 0), (13, 1), (13, 2), (13, 3), (13, 4), (13, 5), (13, 6), (14, -15), (14, -14),
+    (14, -12), (14, -10), (14, -5), (14, 2), (14, 3), (14, 4), (14, 5), (14, 6), (14, 7),
+    (14, 8), (15, -17), (15, -15), (15, -14), (15, -13), (15, 6), (15, 7), (15, 10), (15,
+    11), (15, 12), (16, -17), (16, -16), (16, -15), (16, 9), (16, 10), (16, 11), (16, 12),
+    (17, -20), (17, -19), (17, 9), (17, 10), (18, -18), (18, 9), (18, 10), (19, -30), (19,
+    -20), (19, 9), (20, -30), (20, -20), (21, -30), (21, -22), (21, -21), (22, -30), (22,
+    -29), (22, -23), (23, -30), (23, -29), (23, -28), (23, -27), (24, -28), (24, -27), (24,
+    -26), (24, -25), (24, -24), (24, -23), (24, -22), (24, -21), (24, -14), (24, -13), (25,
+    -24), (25, -22), (25, -21), (25, -20), (25, -11), (25, -10), (26, -21), (26, -14), (27,
+    -15), (27, -14), (27, -13), (27, -12), (27, -11), (27, -10), (28, -14), (28, -13), (28,
+    -9), (28, -8), (28, -7), (29, -10), (29, -6)
+]
+
+
+def test_turn_around_recovery_drives_out_of_a_dead_end_pocket(footprint):
+    """Field failure (willow-full exploration, seed 0): the robot followed its plan into a
+    pocket and the plan then moved behind it. DWA found no command ("of 166 samples 166
+    collide"; now it creeps back a little, then finds none), back_up got 4 cm and
+    rotate_recovery found that turning would hit, and
+    explore gave up goals until "the robot is stuck" (65% of the building). turn_around
+    searches shunting moves out of it and drives them (a robot ramping its speed up and
+    down), going into footprint_padding but keeping 5 mm of it; from where it ends up, DWA
+    drives on along the plan."""
+    from my_summit_path_planning.costmap import Footprint
+    from my_summit_path_planning.navfn import resample_path
+    from my_summit_path_planning.recovery import TurnAroundRecovery, manoeuvre_limit, plan_manoeuvre
+    padded = Footprint.from_params(footprint.polygon.tolist(), padding=0.02)   # explore.launch's
+    res = 0.05
+    m = recorded_costmap(padded, TABLE_POCKET_CELLS)
+    x0, y0 = -3.5 + (70 + 0.452) * res, -3.5 + (70 + 0.552) * res
+    pose = (x0, y0, 2.538)
+    plan = resample_path(np.array([(0.0, 0.0), (0.09, -0.17), (0.08, -0.37), (0.07, -0.57), (0.06, -0.77),
+                                   (0.05, -0.97), (0.11, -1.16), (0.18, -1.35), (0.28, -1.52), (0.4, -1.68)])
+                         + (x0, y0), 0.025)
+    cfg = DWAConfig(**dict(CFG, max_vel_x=0.6, max_vel_trans=0.6, max_vel_theta=1.0, goal_distance_bias=20.0,
+                           xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, padded)
+    planner.set_plan(plan, 1.744)
+    clear = clearance_of(planner, m)
+    c0 = clear(pose)
+    assert 0.0 < c0 < 0.01
+    # DWA alone: a few centimetres of creeping back, then nothing (as move_base stops the
+    # robot when there is no command, and plans again every 2 s, as explore.launch)
+    p, vel = pose, (0.0, 0.0, 0.0)
+    for i in range(200):                        # 10 s
+        if i % 40 == 39:
+            planner.set_plan(plan, 1.744)
+        r = planner.compute_velocity(p, vel, m)
+        vel = r.cmd
+        p = advance(p, vel)
+    assert math.hypot(p[0] - x0, p[1] - y0) < 0.1, p
+
+    assert plan_manoeuvre(padded, m, pose, keep=0.02) is None     # no way out within the padding
+    rec = TurnAroundRecovery(padded, frequency=20.0)
+    rec.start(pose)
+    vel, lowest, dt = (0.0, 0.0, 0.0), c0, 0.05
+    for _ in range(400):                        # 20 s
+        s = rec.step(pose, vel, m)
+        if s.done:
+            break
+        # a robot that ramps to the command (acc_lim_x 2.5 m/s^2, acc_lim_theta 5 rad/s^2)
+        vel = (vel[0] + float(np.clip(s.cmd[0] - vel[0], -2.5 * dt, 2.5 * dt)), 0.0,
+               vel[2] + float(np.clip(s.cmd[2] - vel[2], -5.0 * dt, 5.0 * dt)))
+        pose = advance(pose, vel, dt)
+        lowest = min(lowest, clear(pose))
+    assert s.done and s.ok, s.reason
+    assert lowest >= manoeuvre_limit(c0, padded.padding, 0.005) - 2e-3   # 5 mm of the padding kept
+    assert math.hypot(pose[0] - x0, pose[1] - y0) >= 0.2
+    assert clear(pose) >= c0 + 0.01
+    planner.set_plan(plan, 1.744)               # move_base plans again after a recovery
+    poses, results = [pose], []
+    vel = (0.0, 0.0, 0.0)
+    for _ in range(200):                        # 10 s of DWA
+        r = planner.compute_velocity(pose, vel, m)
+        results.append(r.ok)
+        vel = r.cmd
+        pose = advance(pose, vel)
+        lowest = min(lowest, clear(pose))
+    assert sum(results) >= 190, sum(results)
+    assert lowest >= manoeuvre_limit(c0, padded.padding, 0.005) - 2e-3
+    assert pose[1] < y0 - 0.8, pose            # down the plan, out of the pocket

@@ -13,10 +13,10 @@ from my_summit_path_planning.costmap import Costmap2D, Footprint, LayeredCostmap
 from my_summit_path_planning.dwa import escape_limit, recovery_limit
 from my_summit_path_planning.layers import scan_to_observation
 from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
-from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TYPE, BackUpRecovery,
-                                              ClearCostmapRecovery, RotateRecovery, clear_costmap_layers,
-                                              default_recovery_sequence, recovery_sequence,
-                                              retrace_distance)
+from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TYPE, TURN_AROUND_TYPE,
+                                              BackUpRecovery, ClearCostmapRecovery, RotateRecovery,
+                                              TurnAroundRecovery, clear_costmap_layers, default_recovery_sequence,
+                                              plan_manoeuvre, recovery_sequence, retrace_distance)
 
 CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
 SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
@@ -229,3 +229,68 @@ def test_old_dwa_names_accepted(tmp_path):
     del doc["DWAPlannerROS"]["max_vel_theta"]
     yaml.safe_dump(doc, open(tmp_path / "dwa_local_planner_params.yaml", "w"))
     assert load_move_base_params(str(tmp_path)).dwa.max_vel_theta == 2.0
+
+
+def test_turn_around_in_the_recovery_list_and_its_bad_parameters(footprint):
+    spec = [{"name": "turn_around", "type": TURN_AROUND_TYPE}, {"name": "back_up", "type": BACKUP_TYPE}]
+    seq = recovery_sequence(spec, {"turn_around": {"reach": 0.8}}, None, None, footprint,
+                            rotate_kwargs={"min_in_place_rotational_vel": 0.4, "max_rotational_vel": 0.8},
+                            backup_kwargs={"frequency": 10.0, "acc_lim_x": 2.0})
+    (_, turn), _ = seq
+    assert isinstance(turn, TurnAroundRecovery) and turn.search["reach"] == 0.8
+    assert turn.frequency == 10.0 and turn.rot_vel == 0.4           # move_base's rate, DWA's min_vel_theta
+    for own, match in [({"speed": 0}, "speed"), ({"keep": -0.01}, "keep"), ({"replans": 1.5}, "replans"),
+                       ({"reach": float("nan")}, "reach")]:
+        with pytest.raises(ValueError, match=r"\(t\): " + match):
+            recovery_sequence([{"name": "t", "type": TURN_AROUND_TYPE}], {"t": own}, None, None, footprint)
+
+
+def _pocket(footprint, back):
+    """A robot at (0, 0) facing +x, nose first in a dead end 0.76 m wide, 0.5 m deep: walls
+    along both sides of its front half and 0.06 m ahead of its nose; a wall across
+    behind it at back [m]."""
+    m = Costmap2D(120, 120, 0.05, -3.0, -3.0)
+    for x0, y0, x1, y1 in [(0.0, 0.38, 0.5, 0.6), (0.0, -0.6, 0.5, -0.38), (0.42, -0.6, 0.6, 0.6),
+                           (-back - 0.2, -0.6, -back, 0.6)]:
+        a, b = m.world_to_map_no_bounds(x0, y0), m.world_to_map_no_bounds(x1, y1)
+        m.data[a[1]:b[1] + 1, a[0]:b[0] + 1] = cv.LETHAL_OBSTACLE
+    return m
+
+
+def test_turn_around_recovery_backs_out_of_a_dead_end_or_says_there_is_no_way(footprint):
+    padded = Footprint.from_params(SUMMIT_FOOTPRINT, padding=0.02)
+    free = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    rec = TurnAroundRecovery(padded)
+    rec.start((0.0, 0.0, 0.0))
+    step = rec.step((0.0, 0.0, 0.0), (0, 0, 0), free)
+    assert step.done and step.ok and "room already" in step.reason and step.cmd == (0.0, 0.0, 0.0)
+    # Boxed in all round (a wall 0.1 m behind the tail too): no way out, and no command.
+    boxed = _pocket(padded, back=0.42)
+    assert plan_manoeuvre(padded, boxed, (0.0, 0.0, 0.0)) is None
+    rec.start((0.0, 0.0, 0.0))
+    step = rec.step((0.0, 0.0, 0.0), (0, 0, 0), boxed)
+    assert step.done and not step.ok and "no way out" in step.reason and step.cmd == (0.0, 0.0, 0.0)
+    # Open behind: it backs out (a perfect robot) without touching.
+    m = _pocket(padded, back=2.5)
+    moves = plan_manoeuvre(padded, m, (0.0, 0.0, 0.0))
+    assert moves and all(v <= 0 for v, _ in moves)
+    pose = (0.0, 0.0, 0.0)
+    rec.start(pose)
+    for _ in range(400):
+        step = rec.step(pose, (0, 0, 0), m)
+        if step.done:
+            break
+        vx, _, w = step.cmd
+        pose = (pose[0] + vx * math.cos(pose[2]) * 0.05, pose[1] + vx * math.sin(pose[2]) * 0.05, pose[2] + w * 0.05)
+        assert not _hits(m, padded, pose)
+    assert step.ok, step.reason
+    assert pose[0] <= -0.25
+
+
+def _hits(m, footprint, pose):
+    """The unpadded footprint's points (a 15 x 15 grid) on a lethal cell."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    u, v = np.meshgrid(np.linspace(-0.36, 0.36, 15), np.linspace(-0.31, 0.31, 15))
+    x, y = pose[0] + c * u - s * v, pose[1] + s * u + c * v
+    mx, my = np.floor((x + 3.0) / 0.05).astype(int), np.floor((y + 3.0) / 0.05).astype(int)
+    return bool((m.data[my, mx] == cv.LETHAL_OBSTACLE).any())

@@ -9,18 +9,23 @@ aggressive reset (reset_distance = 4 x circumscribed radius), rotate; and, as mo
 does, a custom ``recovery_behaviors`` list of {name, type} with each behaviour's
 parameters in its own namespace (recovery_sequence). Our one addition to the types is
 back_up (``my_summit_path_planning/BackUpRecovery``, after Navigation2's BackUp
-behaviour): drive straight back a short way, checking the footprint behind.
+behaviour): drive straight back a short way, checking the footprint behind; and
+turn_around (``my_summit_path_planning/TurnAroundRecovery``): a several-point turn out of
+a pocket, found by a uniform-cost search over short forward, backward and turning moves
+(the lattice of a state-lattice planner, Pivtoraiko & Kelly 2005, in its smallest form),
+then driven move by move.
 
 Pure: a recovery gets its costmaps, pose and velocity passed in and returns commands;
 the node publishes them. Each behaviour has the same small shape: ``start(pose)``, then
 ``step(pose, velocity, costmap) -> RecoveryStep`` until ``done``.
 """
+import heapq
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .dwa import footprint_checks, footprint_clearance, obstacle_distance, recovery_limit
+from .dwa import footprint_checks, footprint_clearance, obstacle_distance, recovery_limit, wrap_angle
 
 DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
@@ -248,6 +253,201 @@ class BackUpRecovery:
                               pose[1] - back * math.sin(pose[2]), np.full(n, float(pose[2])))
 
 
+# The moves of turn_around's search: (direction of travel, direction of turn); each goes
+# step [m] and/or turns turn [rad].
+TURN_MOVES = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+MOVE_SUBSTEPS = 5          # footprint checks per move
+FINE_LATTICE = 0.6         # turn_around's second search: moves this many times as long
+
+
+def manoeuvre_limit(c0, padding, keep):
+    """The lowest clearance [m] turn_around's moves may reach from a start clearance c0 [m]:
+    the padded footprint may go into footprint_padding but keep keep [m] of it, and never
+    lower than where the robot already is or 0 (an unpadded footprint has no margin)."""
+    return min(c0, 0.0, -padding + keep) if padding > keep else min(c0, 0.0)
+
+
+def plan_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, reach=0.6, goal_gain=0.02,
+                   min_distance=0.25, keep=0.005, max_expansions=10000):
+    """A sequence of moves out of a pocket: [(v_sign, w_sign), ...] or None.
+
+    Uniform-cost search over poses (x, y, yaw) on a lattice of step [m] and turn [rad]
+    moves (forward, backward, on the spot, and arcs of both), each checked at
+    MOVE_SUBSTEPS poses with DWA's footprint_clearance, down to manoeuvre_limit (the
+    padding but keep [m] of it). Goal: a pose min_distance [m] or more from the start
+    whose clearance is goal_gain [m] above the start's (and at least goal_gain), from
+    which DWA has room to turn and drive on. Moves stay within reach [m] of the start.
+    Cost: distance driven, the turns at the footprint's circumscribed radius, and a
+    penalty of one step per change of direction (fewer shunts).
+    """
+    dist = obstacle_distance(costmap)
+    if dist is None:
+        return []
+    covers, corners = footprint_checks(footprint)
+
+    def clearance(x, y, th):
+        return footprint_clearance(dist, costmap, x, y, th, covers, corners)
+
+    x0, y0, th0 = (float(v) for v in pose)
+    c0 = float(clearance(np.array([x0]), np.array([y0]), np.array([th0]))[0])
+    limit = manoeuvre_limit(c0, footprint.padding, keep)
+    target = max(c0, 0.0) + goal_gain
+    r = footprint.circumscribed_radius
+    frac = np.arange(1, MOVE_SUBSTEPS + 1) / MOVE_SUBSTEPS
+    moves = np.array(TURN_MOVES, dtype=np.float64)
+
+    def key(x, y, th):
+        return (round(x / (0.4 * step)), round(y / (0.4 * step)), round(wrap_angle(th) / (0.5 * turn)))
+
+    parent = {key(x0, y0, th0): None}
+    heap = [(0.0, 0, (x0, y0, th0), 0)]
+    count = 0
+    while heap and count < max_expansions:
+        cost, _, (x, y, th), last_v = heapq.heappop(heap)
+        count += 1
+        # The moves from here, MOVE_SUBSTEPS poses each (arc: the heading turns as it goes).
+        a = th + moves[:, 1:2] * turn * frac[None, :]
+        mid = th + moves[:, 1:2] * turn * (frac[None, :] - 0.5 / MOVE_SUBSTEPS)
+        d = moves[:, 0:1] * step / MOVE_SUBSTEPS
+        xs = x + np.cumsum(d * np.cos(mid), axis=1)
+        ys = y + np.cumsum(d * np.sin(mid), axis=1)
+        clear = clearance(xs, ys, a)
+        ok = (clear >= limit).all(axis=1) & (np.hypot(xs[:, -1] - x0, ys[:, -1] - y0) <= reach)
+        for i in np.flatnonzero(ok):
+            v, w = TURN_MOVES[i]
+            end = (float(xs[i, -1]), float(ys[i, -1]), float(a[i, -1]))
+            k = key(*end)
+            if k in parent:
+                continue
+            parent[k] = (key(x, y, th), (v, w))
+            if clear[i, -1] >= target and math.hypot(end[0] - x0, end[1] - y0) >= min_distance:
+                seq = [(v, w)]
+                k = key(x, y, th)
+                while parent[k] is not None:
+                    k, mv = parent[k]
+                    seq.append(mv)
+                return seq[::-1]
+            c = cost + abs(v) * step + abs(w) * turn * r + (step if v != 0 and last_v != 0 and v != last_v else 0.0)
+            heapq.heappush(heap, (c, len(parent), end, v if v != 0 else last_v))
+    return None
+
+
+class TurnAroundRecovery:
+    """Turn round in a pocket: plan_manoeuvre's moves, driven one by one.
+
+    Why: DWA scores constant-velocity arcs a cycle at a time, so it cannot plan a
+    three-point turn, and back_up only drives straight back. On willow-full a robot that
+    had followed its plan into a dead-end pocket between a wall and a table (the plan then
+    moved behind it) stood there: no arc forward or back stayed clear, rotate_recovery
+    found that turning would hit, and explore gave its goals up one by one until "the
+    robot is stuck". The search found a way out with five shunts, going into the padding
+    by 1.5 cm at most.
+
+    Each move is driven at speed [m/s] (arcs and straight moves) or at
+    min_in_place_rotational_vel [rad/s] (turns on the spot) until odometry shows it done;
+    before each command the rest of the move is checked on the live costmap, and when it
+    would go below the limit the robot stops and the moves are searched again (up to
+    replans times). Done once the moves are driven (ok), or when no way out is found or
+    time_allowance [s] runs out (not ok). frequency [Hz]: the rate step() is called at. A
+    robot with room [m] of clearance or more is not in a pocket: done at once (the
+    recoveries also run when no global plan is found).
+    """
+
+    def __init__(self, footprint, speed=0.1, min_in_place_rotational_vel=0.3, step=0.05, turn=0.1,
+                 reach=0.6, goal_gain=0.02, min_distance=0.25, keep=0.005, time_allowance=20.0,
+                 frequency=20.0, replans=3, max_expansions=10000, room=0.05):
+        _check_positive(speed=speed, min_in_place_rotational_vel=min_in_place_rotational_vel, step=step,
+                        turn=turn, reach=reach, goal_gain=goal_gain, min_distance=min_distance,
+                        time_allowance=time_allowance, frequency=frequency, max_expansions=max_expansions,
+                        room=room)
+        if not isinstance(keep, (int, float)) or not 0.0 <= keep or not math.isfinite(keep):
+            raise ValueError(f"keep: expected a number >= 0, got {keep!r}")
+        if not isinstance(replans, int) or replans < 0:
+            raise ValueError(f"replans: expected an integer >= 0, got {replans!r}")
+        self.footprint = footprint
+        self.speed, self.rot_vel = float(speed), float(min_in_place_rotational_vel)
+        self.search = dict(step=float(step), turn=float(turn), reach=float(reach), goal_gain=float(goal_gain),
+                           min_distance=float(min_distance), keep=float(keep), max_expansions=int(max_expansions))
+        self.time_allowance, self.frequency, self.replans = float(time_allowance), float(frequency), replans
+        self.room = float(room)
+        self.moves = None
+
+    def start(self, pose):
+        """Begin: the moves are searched at the first step (it has the costmap)."""
+        self.moves, self.move_start, self.steps, self.searches, self.start_pose = None, None, 0, 0, tuple(pose)
+
+    def _search(self, pose, costmap):
+        """Search the moves on the lattice of step and turn, then on one FINE_LATTICE times
+        as fine: a way out on one lattice may fall between the other's poses (of the
+        seven recorded wedges of a willow-full run each lattice missed one or two)."""
+        self.searches += 1
+        for scale in (1.0, FINE_LATTICE):
+            self.lattice = (self.search["step"] * scale, self.search["turn"] * scale)
+            found = plan_manoeuvre(self.footprint, costmap, pose, **dict(
+                self.search, step=self.lattice[0], turn=self.lattice[1]))
+            if found is not None:
+                break
+        self.moves = list(found) if found is not None else None
+        self.move_start = tuple(pose)
+        return found is not None
+
+    def _rest_free(self, pose, costmap, v, w, left):
+        """The rest of the current move (left: its fraction not yet driven) stays above the limit."""
+        dist = obstacle_distance(costmap)
+        if dist is None:
+            return True
+        covers, corners = footprint_checks(self.footprint)
+        x, y, th = (float(c) for c in pose)
+        f = np.arange(1, MOVE_SUBSTEPS + 1) / MOVE_SUBSTEPS * max(left, 0.0)
+        step, turn = self.lattice
+        a = th + w * turn * f
+        mid = th + w * turn * (f - 0.5 * f[0])
+        xs = x + np.cumsum(np.full_like(f, v * step * f[0]) * np.cos(mid))
+        ys = y + np.cumsum(np.full_like(f, v * step * f[0]) * np.sin(mid))
+        clear = footprint_clearance(dist, costmap, np.append(x, xs), np.append(y, ys), np.append(th, a),
+                                    covers, corners)
+        limit = manoeuvre_limit(float(clear[0]), self.footprint.padding, self.search["keep"])
+        return bool((clear[1:] >= limit - 1e-3).all())
+
+    def step(self, pose, velocity, costmap):
+        """Command for this period (see the class docstring)."""
+        if self.moves is None and self.searches == 0:
+            dist = obstacle_distance(costmap)
+            covers, corners = footprint_checks(self.footprint)
+            if dist is None or float(footprint_clearance(dist, costmap, np.array([float(pose[0])]),
+                                                         np.array([float(pose[1])]), np.array([float(pose[2])]),
+                                                         covers, corners)[0]) >= self.room:
+                return RecoveryStep(done=True, reason="turn around: the robot has room already")
+            if not self._search(pose, costmap):
+                return RecoveryStep(done=True, ok=False, reason="turn around: no way out found within "
+                                    f"{self.search['reach']:.1f} m")
+            if not self.moves:
+                return RecoveryStep(done=True, reason="turn around: the robot has room already")
+        self.steps += 1
+        if self.steps / self.frequency > self.time_allowance:
+            return RecoveryStep(done=True, ok=False, reason=f"turn around: not done in {self.time_allowance:.0f} s")
+        while self.moves:
+            v, w = self.moves[0]
+            sx, sy, sth = self.move_start
+            done_d = math.hypot(pose[0] - sx, pose[1] - sy) / self.lattice[0] if v else 1.0
+            done_a = abs(wrap_angle(pose[2] - sth)) / self.lattice[1] if w else 1.0
+            if min(done_d, done_a) >= 0.95:
+                self.moves.pop(0)
+                self.move_start = tuple(pose)
+                continue
+            left = 1.0 - min(done_d, done_a)
+            if not self._rest_free(pose, costmap, v, w, left):
+                if self.searches > self.replans or not self._search(pose, costmap):
+                    return RecoveryStep(done=True, ok=False, reason="turn around: the way out closed")
+                continue
+            if v:
+                return RecoveryStep(cmd=(v * self.speed, 0.0, w * self.speed * self.lattice[1] / self.lattice[0]))
+            return RecoveryStep(cmd=(0.0, 0.0, w * self.rot_vel))
+        return RecoveryStep(done=True, reason=f"turn around: done in {self.searches} search(es), "
+                            f"{math.hypot(pose[0] - self.start_pose[0], pose[1] - self.start_pose[1]):.2f} m from "
+                            "where it started")
+
+
 def retrace_distance(pose, trail, max_dist, tolerance, step=0.01):
     """How far [m] (up to max_dist) the robot at pose (x, y, yaw) can back up straight over
     its trail [(x, y), ...]: its centre stays within tolerance [m] of a trail point, and no
@@ -302,7 +502,8 @@ def default_recovery_sequence(global_costmap, local_costmap, footprint, conserva
 CLEAR_TYPE = "clear_costmap_recovery/ClearCostmapRecovery"
 ROTATE_TYPE = "rotate_recovery/RotateRecovery"
 BACKUP_TYPE = "my_summit_path_planning/BackUpRecovery"
-RECOVERY_TYPES = (CLEAR_TYPE, ROTATE_TYPE, BACKUP_TYPE)
+TURN_AROUND_TYPE = "my_summit_path_planning/TurnAroundRecovery"
+RECOVERY_TYPES = (CLEAR_TYPE, ROTATE_TYPE, BACKUP_TYPE, TURN_AROUND_TYPE)
 
 
 def recovery_sequence(spec, behaviour_params, global_costmap, local_costmap, footprint, rotate_kwargs=None,
@@ -337,6 +538,11 @@ def recovery_sequence(spec, behaviour_params, global_costmap, local_costmap, foo
                 beh = RotateRecovery(footprint, **{**(rotate_kwargs or {}), **own})
             elif kind == BACKUP_TYPE:
                 beh = BackUpRecovery(footprint, **{**(backup_kwargs or {}), **own})
+            elif kind == TURN_AROUND_TYPE:
+                rk = rotate_kwargs or {}
+                base = {k: v for k, v in {**(backup_kwargs or {}), **rk}.items()
+                        if k in ("frequency", "min_in_place_rotational_vel")}
+                beh = TurnAroundRecovery(footprint, **{**base, **own})
             else:
                 raise ValueError(f"unknown type {kind!r} (known: {', '.join(RECOVERY_TYPES)})")
         except (TypeError, ValueError) as e:
