@@ -35,6 +35,20 @@ def _with_obstacles(footprint):
     return lc
 
 
+def run_recovery(rec, pose, costmap, check=None, steps=400, dt=0.05):
+    """Start rec at pose and drive a perfect robot (velocity = command) until it is done;
+    check(pose) must hold at every pose. Returns (its last step, the pose)."""
+    rec.start(pose)
+    for _ in range(steps):
+        step = rec.step(pose, (0, 0, 0), costmap)
+        if step.done:
+            break
+        vx, _, w = step.cmd
+        pose = (pose[0] + vx * math.cos(pose[2]) * dt, pose[1] + vx * math.sin(pose[2]) * dt, pose[2] + w * dt)
+        assert check is None or check(pose), pose
+    return step, pose
+
+
 def test_conservative_and_aggressive_reset(footprint):
     lc = _with_obstacles(footprint)
     assert lc.master.cost_at(0.98, 0.0) == cv.LETHAL_OBSTACLE
@@ -52,14 +66,8 @@ def test_conservative_and_aggressive_reset(footprint):
 def test_rotate_recovery_turns_once_and_stops_when_blocked(footprint):
     free = Costmap2D(100, 100, 0.05, -2.5, -2.5)
     rec = RotateRecovery(footprint)
-    pose = (0.0, 0.0, 0.0)
-    rec.start(pose)
-    for _ in range(400):
-        step = rec.step(pose, (0, 0, 0), free)
-        if step.done:
-            break
-        pose = (0.0, 0.0, pose[2] + step.cmd[2] * 0.05)
-    assert step.done and step.ok
+    step, pose = run_recovery(rec, (0.0, 0.0, 0.0), free)
+    assert step.done and step.ok and pose[2] == pytest.approx(2.0 * math.pi, abs=0.1)
     blocked = Costmap2D(100, 100, 0.05, -2.5, -2.5)
     blocked.data[50:56, 58:60] = cv.LETHAL_OBSTACLE  # touches the footprint's corner sweep only
     rec.start((0.0, 0.0, 0.0))
@@ -274,15 +282,7 @@ def test_turn_around_recovery_backs_out_of_a_dead_end_or_says_there_is_no_way(fo
     m = _pocket(padded, back=2.5)
     moves = plan_manoeuvre(padded, m, (0.0, 0.0, 0.0))
     assert moves and all(v <= 0 for v, _ in moves)
-    pose = (0.0, 0.0, 0.0)
-    rec.start(pose)
-    for _ in range(400):
-        step = rec.step(pose, (0, 0, 0), m)
-        if step.done:
-            break
-        vx, _, w = step.cmd
-        pose = (pose[0] + vx * math.cos(pose[2]) * 0.05, pose[1] + vx * math.sin(pose[2]) * 0.05, pose[2] + w * 0.05)
-        assert not _hits(m, padded, pose)
+    step, pose = run_recovery(rec, (0.0, 0.0, 0.0), m, check=lambda p: not _hits(m, padded, p))
     assert step.ok, step.reason
     assert pose[0] <= -0.25
 
