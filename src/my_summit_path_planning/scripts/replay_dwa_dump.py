@@ -1,14 +1,15 @@
 #!/usr/bin/python3
 """Replay what move_base's DWA saw when it found no valid command (~debug_dump_dir).
 
-    replay_dwa_dump.py DUMP.pkl [--png OUT.png] [--scale 8]
+    replay_dwa_dump.py DUMP.pkl [--png OUT.png] [--scale 8] [--turn-around]
 
 Loads a dump (local costmap, DWAPlanner with its plan and state, pose, velocity), runs
 DWAPlanner.compute_velocity on it again and prints the result; with --png draws the
 local costmap round the robot (black: lethal, grey: inscribed, light: inflated, dark
 grey: unknown), the padded footprint (red), the global plan (blue) and, when a command
-is found, its trajectory (green). For offline study of wedges; the copy is independent
-of the running robot.
+is found, its trajectory (green); with --turn-around also prints the moves the
+turn_around recovery would search from there. For offline study of wedges; the copy is
+independent of the running robot.
 """
 import argparse
 import math
@@ -60,11 +61,26 @@ def render(state, result, scale, half=2.0):
     return cv2.flip(img, 0)   # row 0 = lowest y: north up
 
 
+def describe_manoeuvre(state):
+    """'turn_around: 11 moves (0.05 m, 0.10 rad): right, back-right, ...' or why none."""
+    from my_summit_path_planning.recovery import FINE_LATTICE, plan_manoeuvre
+    footprint = state["dwa"].footprint
+    for step, turn in ((0.05, 0.1), (0.05 * FINE_LATTICE, 0.1 * FINE_LATTICE)):
+        moves = plan_manoeuvre(footprint, state["costmap"], state["pose"], step=step, turn=turn)
+        if moves is not None:
+            names = [("fwd" if v > 0 else "back" if v < 0 else "")
+                     + ("-" if v and w else "") + ("left" if w > 0 else "right" if w < 0 else "") for v, w in moves]
+            return f"turn_around: {len(moves)} moves ({step:.2f} m, {turn:.2f} rad): " + ", ".join(names)
+    return "turn_around: no way out found"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("dump")
     ap.add_argument("--png", help="draw the costmap, footprint, plan and trajectory here")
     ap.add_argument("--scale", type=int, default=8, help="pixels per costmap cell")
+    ap.add_argument("--turn-around", action="store_true",
+                    help="print the moves turn_around's search finds from the dumped pose")
     args = ap.parse_args(argv)
     try:
         with open(args.dump, "rb") as f:
@@ -78,6 +94,8 @@ def main(argv=None):
     print(f"mode {res.mode}, ok {res.ok}, cmd {res.cmd}, {res.n_valid} of {res.n_samples} samples valid")
     if res.reason:
         print(f"reason: {res.reason}")
+    if args.turn_around:
+        print(describe_manoeuvre(state))
     if args.png:
         cv2.imwrite(args.png, render(state, res, args.scale))
         print(f"picture: {args.png}")

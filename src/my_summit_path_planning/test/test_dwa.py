@@ -692,9 +692,11 @@ def test_replay_script_reads_a_dump_and_draws_it(footprint, tmp_path):
     live = planner.compute_velocity(pose, vel, m)
     script = os.path.join(os.path.dirname(__file__), "..", "scripts", "replay_dwa_dump.py")
     png = tmp_path / "d.png"
-    out = subprocess.run([sys.executable, script, str(dump), "--png", str(png)], capture_output=True, text=True)
+    out = subprocess.run([sys.executable, script, str(dump), "--png", str(png), "--turn-around"],
+                         capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert live.mode == "escape" and f"mode escape, ok {live.ok}, cmd {live.cmd}," in out.stdout
+    assert "turn_around: no way out found" in out.stdout     # boxed in all round
     assert png.stat().st_size > 0
     bad = subprocess.run([sys.executable, script, str(tmp_path / "missing.pkl")], capture_output=True, text=True)
     assert bad.returncode == 2 and "cannot read" in bad.stderr
