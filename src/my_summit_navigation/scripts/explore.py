@@ -26,7 +26,9 @@ stops, says so, and saves the map.
         ~stuck_distance (0.5 m): that many goals given up in a row for no progress while the
         robot stayed within stuck_distance of where it was at the first means the robot is
         stuck, not the frontiers unreachable: exploration ends and says so, map saved
-        (frontiers.StuckWatch; 0: never);
+        (frontiers.StuckWatch; 0: never); ~stall_hold (5 s): a goal without progress for
+        that long is held (no switching to another frontier) until it is reached, aborted or
+        given up, so that move_base's recoveries get their turn (0: never held);
         ~save_map (base path; default $ROS_HOME/explored_map; empty: do not save),
         ~max_time (0 = no limit [s]).
 """
@@ -73,6 +75,7 @@ class Explore:
                                         goal_search=float(rospy.get_param("~goal_search", 1.0)))
         self.save_base = rospy.get_param("~save_map", os.path.join(rospkg.get_ros_home(), "explored_map"))
         self.max_time = float(rospy.get_param("~max_time", 0.0))
+        self.stall_hold = float(rospy.get_param("~stall_hold", 5.0))
         self.stuck = fr.StuckWatch(int(rospy.get_param("~stuck_goals", 6)),
                                    float(rospy.get_param("~stuck_distance", 0.5)))
         self.lock = threading.Lock()
@@ -208,6 +211,13 @@ class Explore:
         self.empty_rounds = 0
         if self.goal is not None and any(math.hypot(f.goal[0] - self.goal[0], f.goal[1] - self.goal[1]) < SAME_GOAL
                                          for f in found[:3]):
+            return None
+        if self.goal is not None and 0 < self.stall_hold <= self.progress.stalled(now):
+            # A goal the robot has made no progress towards for stall_hold is kept until
+            # it is reached, aborted or given up: each new goal restarts move_base's
+            # recoveries, and on willow-full the choice flipped between two frontiers every
+            # 4-6 s while the robot stood wedged in a pocket, so move_base never got past
+            # its first recovery to the one that would have turned it out (turn_around).
             return None
         self.send(found[0], robot)
         return None

@@ -133,6 +133,22 @@ def test_goal_heading_faces_a_frontier_travel_would_leave_behind():
     assert math.isclose(fr.goal_heading((0.0, 0.0), (2.0, 0.0), (2.0, 1.5)), 0.0)
 
 
+def test_goal_progress_stalled_time_of_the_active_goal():
+    p = fr.GoalProgress(timeout=30.0)
+    assert p.stalled(5.0) == 0.0                 # no goal
+    p.start((5.0, 0.0), 0.0)
+    assert p.stalled(3.0) == 0.0                 # no distance measured yet
+    p.update(5.0, 0.0)
+    assert p.stalled(4.0) == 4.0
+    p.update(4.0, 6.0)                           # progress
+    assert p.stalled(7.0) == 1.0
+    p.start((-50.0, 0.0), 8.0)                   # another goal: its own clock
+    p.update(50.0, 8.0)
+    assert p.stalled(10.0) == 2.0
+    p.start((5.0, 0.0), 10.0)                    # back to the first: 2 s active without progress so far
+    assert p.stalled(10.0) == 2.0 and p.stalled(13.0) == 5.0
+
+
 def test_goal_progress_survives_a_flickering_choice_of_goals():
     p = fr.GoalProgress(timeout=30.0, same=0.5)
     # goals A and B alternate every 2 s, the robot going nowhere: A keeps its watch and

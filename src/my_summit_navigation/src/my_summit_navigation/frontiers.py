@@ -283,6 +283,10 @@ class GoalProgress:
         self.goals.append(self.active)
         return False
 
+    def stalled(self, now):
+        """[s] the active goal has been active without progress (0 when none is active)."""
+        return 0.0 if self.active is None or self.active[1] == math.inf else max(0.0, now - self.active[2])
+
     def update(self, distance, now):
         """The robot's distance to the active goal at time now; True once no progress
         for timeout."""
