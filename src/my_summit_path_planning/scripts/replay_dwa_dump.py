@@ -63,15 +63,13 @@ def render(state, result, scale, half=2.0):
 
 def describe_manoeuvre(state):
     """'turn_around: 11 moves (0.05 m, 0.10 rad): right, back-right, ...' or why none."""
-    from my_summit_path_planning.recovery import FINE_LATTICE, plan_manoeuvre
-    footprint = state["dwa"].footprint
-    for step, turn in ((0.05, 0.1), (0.05 * FINE_LATTICE, 0.1 * FINE_LATTICE)):
-        moves = plan_manoeuvre(footprint, state["costmap"], state["pose"], step=step, turn=turn)
-        if moves is not None:
-            names = [("fwd" if v > 0 else "back" if v < 0 else "")
-                     + ("-" if v and w else "") + ("left" if w > 0 else "right" if w < 0 else "") for v, w in moves]
-            return f"turn_around: {len(moves)} moves ({step:.2f} m, {turn:.2f} rad): " + ", ".join(names)
-    return "turn_around: no way out found"
+    from my_summit_path_planning.recovery import search_manoeuvre
+    moves, (step, turn) = search_manoeuvre(state["dwa"].footprint, state["costmap"], state["pose"])
+    if moves is None:
+        return "turn_around: no way out found"
+    names = [("fwd" if v > 0 else "back" if v < 0 else "")
+             + ("-" if v and w else "") + ("left" if w > 0 else "right" if w < 0 else "") for v, w in moves]
+    return f"turn_around: {len(moves)} moves ({step:.2f} m, {turn:.2f} rad): " + ", ".join(names)
 
 
 def main(argv=None):

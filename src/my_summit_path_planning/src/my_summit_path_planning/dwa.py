@@ -868,7 +868,7 @@ class DWAPlanner:
             crept = slow & (samples[:, 0] >= 0.0) & loses & keeps_short
             # The last resort (below): backing up slowly where it regains clearance by the
             # time the robot could stop, and loses none on the way.
-            creeps_back = slow & (samples[:, 0] < 0.0) & loses & keeps_short & (min_short >= min(c0, 0.0)) \
+            creeps_back = slow & (samples[:, 0] < 0.0) & loses & keeps_short \
                 & (clearance[rows, np.clip(n_short - 1, 0, n_steps - 1)] >= c0 + ESCAPE_SLACK) \
                 & ~((centre == LETHAL_OBSTACLE) & short).any(axis=1)
             loses &= ~crept

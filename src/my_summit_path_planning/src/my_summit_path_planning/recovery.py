@@ -95,13 +95,15 @@ class ClearCostmapRecovery:
         return RecoveryStep(done=True)
 
 
-def footprint_free(footprint, costmap, pose, x, y, th):
+def footprint_free(footprint, costmap, pose, x, y, th, limit=None):
     """The footprint at every pose (arrays x, y [m], th [rad]) of a motion from pose
     (x, y, yaw) keeps its clearance from the lethal and unknown cells (DWA's
     footprint_clearance: axis circles, refined by the grid circles and the corners near
     obstacles): >= 0, or from a pose already inside footprint_padding, down to
     dwa.recovery_limit. Held to >= 0 there, a robot that DWA's escape mode had left a
-    centimetre from a wall could neither back up nor turn at all."""
+    centimetre from a wall could neither back up nor turn at all. limit: the lowest
+    clearance allowed, as a function of the start pose's clearance (default:
+    recovery_limit with the footprint's padding)."""
     dist = obstacle_distance(costmap)
     if dist is None:
         return True
@@ -109,7 +111,18 @@ def footprint_free(footprint, costmap, pose, x, y, th):
     # One pass over the start pose (first) and the motion's poses.
     clear = footprint_clearance(dist, costmap, np.append(float(pose[0]), x), np.append(float(pose[1]), y),
                                 np.append(float(pose[2]), th), covers, corners)
-    return bool((clear[1:] >= recovery_limit(float(clear[0]), footprint.padding)).all())
+    lowest = limit(float(clear[0])) if limit is not None else recovery_limit(float(clear[0]), footprint.padding)
+    return bool((clear[1:] >= lowest).all())
+
+
+def pose_clearance(footprint, costmap, pose):
+    """DWA's footprint_clearance [m] of one pose (x, y, yaw); inf with no blocked cell."""
+    dist = obstacle_distance(costmap)
+    if dist is None:
+        return math.inf
+    covers, corners = footprint_checks(footprint)
+    return float(footprint_clearance(dist, costmap, np.array([float(pose[0])]), np.array([float(pose[1])]),
+                                     np.array([float(pose[2])]), covers, corners)[0])
 
 
 class RotateRecovery:
@@ -260,6 +273,19 @@ MOVE_SUBSTEPS = 5          # footprint checks per move
 FINE_LATTICE = 0.6         # turn_around's second search: moves this many times as long
 
 
+def move_poses(pose, moves, step, turn):
+    """The MOVE_SUBSTEPS poses along each move (v_sign, w_sign) of moves (K, 2) from pose
+    (x, y, yaw), going step [m] and turning turn [rad] (arcs: the heading turns as it
+    goes, each sub-step driven at its middle heading): (xs, ys, yaws), each (K, MOVE_SUBSTEPS)."""
+    x, y, th = pose
+    moves = np.asarray(moves, dtype=np.float64).reshape(-1, 2)
+    frac = np.arange(1, MOVE_SUBSTEPS + 1) / MOVE_SUBSTEPS
+    a = th + moves[:, 1:2] * turn * frac[None, :]
+    mid = th + moves[:, 1:2] * turn * (frac[None, :] - 0.5 / MOVE_SUBSTEPS)
+    d = moves[:, 0:1] * step / MOVE_SUBSTEPS
+    return x + np.cumsum(d * np.cos(mid), axis=1), y + np.cumsum(d * np.sin(mid), axis=1), a
+
+
 def manoeuvre_limit(c0, padding, keep):
     """The lowest clearance [m] turn_around's moves may reach from a start clearance c0 [m]:
     the padded footprint may go into footprint_padding but keep keep [m] of it, and never
@@ -293,8 +319,6 @@ def plan_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, reach=0.6, goa
     limit = manoeuvre_limit(c0, footprint.padding, keep)
     target = max(c0, 0.0) + goal_gain
     r = footprint.circumscribed_radius
-    frac = np.arange(1, MOVE_SUBSTEPS + 1) / MOVE_SUBSTEPS
-    moves = np.array(TURN_MOVES, dtype=np.float64)
 
     def key(x, y, th):
         return (round(x / (0.4 * step)), round(y / (0.4 * step)), round(wrap_angle(th) / (0.5 * turn)))
@@ -305,12 +329,7 @@ def plan_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, reach=0.6, goa
     while heap and count < max_expansions:
         cost, _, (x, y, th), last_v = heapq.heappop(heap)
         count += 1
-        # The moves from here, MOVE_SUBSTEPS poses each (arc: the heading turns as it goes).
-        a = th + moves[:, 1:2] * turn * frac[None, :]
-        mid = th + moves[:, 1:2] * turn * (frac[None, :] - 0.5 / MOVE_SUBSTEPS)
-        d = moves[:, 0:1] * step / MOVE_SUBSTEPS
-        xs = x + np.cumsum(d * np.cos(mid), axis=1)
-        ys = y + np.cumsum(d * np.sin(mid), axis=1)
+        xs, ys, a = move_poses((x, y, th), TURN_MOVES, step, turn)   # the moves from here
         clear = clearance(xs, ys, a)
         ok = (clear >= limit).all(axis=1) & (np.hypot(xs[:, -1] - x0, ys[:, -1] - y0) <= reach)
         for i in np.flatnonzero(ok):
@@ -330,6 +349,19 @@ def plan_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, reach=0.6, goa
             c = cost + abs(v) * step + abs(w) * turn * r + (step if v != 0 and last_v != 0 and v != last_v else 0.0)
             heapq.heappush(heap, (c, len(parent), end, v if v != 0 else last_v))
     return None
+
+
+def search_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, **search):
+    """plan_manoeuvre on the lattice of step and turn, then on one FINE_LATTICE times as
+    fine: a way out on one lattice may fall between the other's poses (of the seven
+    recorded wedges of a willow-full run each lattice missed one or two). Returns (moves,
+    (step, turn) of the lattice they are on); moves None when neither finds a way."""
+    for scale in (1.0, FINE_LATTICE):
+        lattice = (step * scale, turn * scale)
+        moves = plan_manoeuvre(footprint, costmap, pose, step=lattice[0], turn=lattice[1], **search)
+        if moves is not None:
+            break
+    return moves, lattice
 
 
 class TurnAroundRecovery:
@@ -377,46 +409,24 @@ class TurnAroundRecovery:
         self.moves, self.move_start, self.steps, self.searches, self.start_pose = None, None, 0, 0, tuple(pose)
 
     def _search(self, pose, costmap):
-        """Search the moves on the lattice of step and turn, then on one FINE_LATTICE times
-        as fine: a way out on one lattice may fall between the other's poses (of the
-        seven recorded wedges of a willow-full run each lattice missed one or two)."""
         self.searches += 1
-        for scale in (1.0, FINE_LATTICE):
-            self.lattice = (self.search["step"] * scale, self.search["turn"] * scale)
-            found = plan_manoeuvre(self.footprint, costmap, pose, **dict(
-                self.search, step=self.lattice[0], turn=self.lattice[1]))
-            if found is not None:
-                break
+        found, self.lattice = search_manoeuvre(self.footprint, costmap, pose, **self.search)
         self.moves = list(found) if found is not None else None
         self.move_start = tuple(pose)
         return found is not None
 
     def _rest_free(self, pose, costmap, v, w, left):
         """The rest of the current move (left: its fraction not yet driven) stays above the limit."""
-        dist = obstacle_distance(costmap)
-        if dist is None:
-            return True
-        covers, corners = footprint_checks(self.footprint)
-        x, y, th = (float(c) for c in pose)
-        f = np.arange(1, MOVE_SUBSTEPS + 1) / MOVE_SUBSTEPS * max(left, 0.0)
         step, turn = self.lattice
-        a = th + w * turn * f
-        mid = th + w * turn * (f - 0.5 * f[0])
-        xs = x + np.cumsum(np.full_like(f, v * step * f[0]) * np.cos(mid))
-        ys = y + np.cumsum(np.full_like(f, v * step * f[0]) * np.sin(mid))
-        clear = footprint_clearance(dist, costmap, np.append(x, xs), np.append(y, ys), np.append(th, a),
-                                    covers, corners)
-        limit = manoeuvre_limit(float(clear[0]), self.footprint.padding, self.search["keep"])
-        return bool((clear[1:] >= limit - 1e-3).all())
+        xs, ys, a = move_poses(pose, [(v, w)], step * max(left, 0.0), turn * max(left, 0.0))
+        keep = self.search["keep"]
+        return footprint_free(self.footprint, costmap, pose, xs[0], ys[0], a[0],
+                              limit=lambda c0: manoeuvre_limit(c0, self.footprint.padding, keep) - 1e-3)
 
     def step(self, pose, velocity, costmap):
         """Command for this period (see the class docstring)."""
         if self.moves is None and self.searches == 0:
-            dist = obstacle_distance(costmap)
-            covers, corners = footprint_checks(self.footprint)
-            if dist is None or float(footprint_clearance(dist, costmap, np.array([float(pose[0])]),
-                                                         np.array([float(pose[1])]), np.array([float(pose[2])]),
-                                                         covers, corners)[0]) >= self.room:
+            if pose_clearance(self.footprint, costmap, pose) >= self.room:
                 return RecoveryStep(done=True, reason="turn around: the robot has room already")
             if not self._search(pose, costmap):
                 return RecoveryStep(done=True, ok=False, reason="turn around: no way out found within "
