@@ -62,14 +62,15 @@ def render(state, result, scale, half=2.0):
 
 
 def describe_manoeuvre(state):
-    """'turn_around: 11 moves (0.05 m, 0.10 rad): right, back-right, ...' or why none."""
+    """'turn_around: 11 moves (0.05 m, 0.10 rad, keeping 5 mm of padding): right, ...' or why none."""
     from my_summit_path_planning.recovery import search_manoeuvre
-    moves, (step, turn) = search_manoeuvre(state["dwa"].footprint, state["costmap"], state["pose"])
+    moves, (step, turn, keep) = search_manoeuvre(state["dwa"].footprint, state["costmap"], state["pose"])
     if moves is None:
         return "turn_around: no way out found"
     names = [("fwd" if v > 0 else "back" if v < 0 else "")
              + ("-" if v and w else "") + ("left" if w > 0 else "right" if w < 0 else "") for v, w in moves]
-    return f"turn_around: {len(moves)} moves ({step:.2f} m, {turn:.2f} rad): " + ", ".join(names)
+    return (f"turn_around: {len(moves)} moves ({step:.2f} m, {turn:.2f} rad, keeping {1000 * keep:.0f} mm of "
+            "padding): " + ", ".join(names))
 
 
 def main(argv=None):

@@ -866,3 +866,89 @@ def test_turn_around_recovery_drives_out_of_a_dead_end_pocket(footprint):
     assert sum(results) >= 190, sum(results)
     assert lowest >= manoeuvre_limit(c0, padded.padding, 0.005) - 2e-3
     assert pose[1] < y0 - 0.8, pose            # down the plan, out of the pocket
+
+
+# The lethal cells (dx, dy) round the robot's cell in a move_base debug dump (willow-full
+# exploration from seed 1's start, 265.1 s): a channel between two clusters of chair and
+# table legs, as wide as the padded footprint give or take a centimetre.
+LEG_CHANNEL_CELLS = [
+    (-30, 12), (-30, 13), (-30, 14), (-30, 15), (-30, 16), (-30, 19), (-30, 20), (-29,
+    14), (-29, 15), (-26, 17), (-24, 14), (-24, 15), (-23, 14), (-23, 15), (-22, 15),
+    (-21, 15), (-20, 17), (-20, 18), (-19, 14), (-16, 10), (-16, 11), (-16, 12), (-15,
+    11), (-15, 12), (-14, 12), (-14, 18), (-13, 12), (-13, 17), (-13, 18), (-13, 19),
+    (-12, 11), (-12, 18), (-12, 19), (-11, 11), (-11, 18), (-11, 19), (-11, 20), (-11,
+    21), (-11, 22), (-10, 11), (-10, 13), (-10, 14), (-10, 15), (-10, 19), (-10, 20),
+    (-10, 21), (-10, 22), (-10, 23), (-9, 7), (-9, 13), (-9, 14), (-9, 21), (-9, 22),
+    (-9, 24), (-9, 25), (-8, 7), (-8, 8), (-8, 22), (-8, 25), (-7, 7), (-7, 8), (-7, 9),
+    (-7, 18), (-7, 19), (-6, 7), (-6, 8), (-6, 9), (-6, 10), (-6, 18), (-6, 19), (-6,
+    20), (-6, 21), (-6, 22), (-5, 8), (-5, 9), (-5, 18), (-5, 19), (-5, 21), (-5, 22),
+    (-5, 24), (-5, 25), (-4, 21), (-4, 23), (-4, 24), (-4, 25), (-4, 30), (-3, 24), (-3,
+    30), (6, -18), (6, -5), (6, -4), (7, -18), (7, -6), (7, -5), (7, -4), (7, -2), (8,
+    -17), (8, -5), (8, -4), (8, -3), (8, -2), (8, -1), (8, 0), (8, 1), (9, -4), (9, -3),
+    (9, -2), (9, -1), (9, 0), (9, 1), (10, -2), (10, -1), (10, 0), (10, 1), (11, -5),
+    (11, -4), (11, -1), (11, 1), (11, 2), (12, -7), (12, -6), (12, -5), (12, 0), (12,
+    1), (12, 2), (13, -16), (13, -15), (13, -8), (13, -7), (13, -6), (13, 0), (13, 2),
+    (14, -16), (14, -15), (14, -14), (14, -6), (14, 0), (15, -15), (15, -14), (15, -6),
+    (16, -14), (16, -5), (16, 1), (16, 2), (17, -14), (17, -13), (17, -5), (17, 1), (17,
+    2), (18, -14), (18, -13), (18, 1), (18, 2), (19, -2), (20, -1), (21, -3), (21, -2),
+    (22, -3), (22, 3), (22, 4), (23, -2), (23, 2), (23, 3), (23, 4), (24, -2), (24, -1),
+    (24, 3), (24, 4), (24, 5), (25, -3), (25, -2), (25, -1), (25, 4), (25, 5), (26, -4),
+    (26, -3), (26, -2), (26, 4), (26, 5), (27, -3), (27, -2), (27, 5), (27, 6), (28, 5),
+    (28, 6), (29, 6), (30, 0), (30, 1), (30, 6), (30, 7)]
+
+
+def test_turn_around_spends_the_last_of_the_padding_only_when_nothing_else_gets_out(footprint):
+    """Field failure (willow-full exploration, seed 1): new laser marks closed round the
+    robot in a channel between chair and table legs, 2.5 mm inside its padded footprint.
+    Straight back out the way it came the clearance dips to -1.6 cm for a centimetre (the
+    footprint crossing cells), below what back_up, DWA's escape mode and a turn_around
+    keeping 5 mm of footprint_padding allow, so every recovery failed, 6 goals were given
+    up and explore ended "the robot is stuck" at 28%. turn_around now searches again
+    keeping none of the padding when keeping 5 mm finds nothing, and drives out without
+    the unpadded footprint touching a cell; DWA then drives on down the plan."""
+    from my_summit_path_planning.costmap import Footprint
+    from my_summit_path_planning.navfn import resample_path
+    from my_summit_path_planning.recovery import TurnAroundRecovery, plan_manoeuvre, search_manoeuvre
+    padded = Footprint.from_params(footprint.polygon.tolist(), padding=0.02)   # explore.launch's
+    res = 0.05
+    m = recorded_costmap(padded, LEG_CHANNEL_CELLS)
+    x0, y0 = -3.5 + (70 + 0.273) * res, -3.5 + (70 + 0.880) * res
+    pose = (x0, y0, 1.155)
+    plan = resample_path(np.array([[0.02, 0.01], [-0.1, -0.1], [-0.21, -0.23], [-0.32, -0.37], [-0.39, -0.53], [-0.42, -0.7], [-0.44, -0.87], [-0.4, -1.04], [-0.37, -1.21], [-0.28, -1.36]]) + (x0, y0), 0.025)
+    cfg = DWAConfig(**dict(CFG, max_vel_x=0.6, max_vel_trans=0.6, max_vel_theta=1.0, goal_distance_bias=20.0,
+                           xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, padded)
+    planner.set_plan(plan, -1.6)
+    clear = clearance_of(planner, m)
+    c0 = clear(pose)
+    assert -0.01 < c0 < 0.0
+    assert not planner.compute_velocity(pose, (0.0, 0.0, 0.0), m).ok
+    assert plan_manoeuvre(padded, m, pose, keep=0.005) is None                  # keeping 5 mm: no way
+    assert plan_manoeuvre(padded, m, pose, keep=0.005, step=0.03, turn=0.06) is None
+    moves, (_, _, kept) = search_manoeuvre(padded, m, pose)
+    assert moves and kept == 0.0
+    rec = TurnAroundRecovery(padded, frequency=20.0)
+    rec.start(pose)
+    vel, lowest, dt = (0.0, 0.0, 0.0), c0, 0.05
+    for _ in range(400):                        # 20 s
+        s = rec.step(pose, vel, m)
+        if s.done:
+            break
+        # a robot that ramps to the command (acc_lim_x 2.5 m/s^2, acc_lim_theta 5 rad/s^2)
+        vel = (vel[0] + float(np.clip(s.cmd[0] - vel[0], -2.5 * dt, 2.5 * dt)), 0.0,
+               vel[2] + float(np.clip(s.cmd[2] - vel[2], -5.0 * dt, 5.0 * dt)))
+        pose = advance(pose, vel, dt)
+        lowest = min(lowest, clear(pose))
+        assert not footprint_hits(m, footprint, *pose), pose
+    assert s.done and s.ok, s.reason
+    assert lowest >= -padded.padding - 1e-3
+    assert math.hypot(pose[0] - x0, pose[1] - y0) >= 0.25
+    assert clear(pose) >= 0.0
+    planner.set_plan(plan, -1.6)                # move_base plans again after a recovery
+    vel = (0.0, 0.0, 0.0)
+    for _ in range(200):                        # 10 s of DWA
+        r = planner.compute_velocity(pose, vel, m)
+        vel = r.cmd
+        pose = advance(pose, vel)
+        assert not footprint_hits(m, footprint, *pose), pose
+    assert math.hypot(pose[0] - x0, pose[1] - y0) > 1.0, pose   # down the plan, out of the channel

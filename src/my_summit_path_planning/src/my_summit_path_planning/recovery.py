@@ -351,17 +351,22 @@ def plan_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, reach=0.6, goa
     return None
 
 
-def search_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, **search):
+def search_manoeuvre(footprint, costmap, pose, step=0.05, turn=0.1, keep=0.005, **search):
     """plan_manoeuvre on the lattice of step and turn, then on one FINE_LATTICE times as
     fine: a way out on one lattice may fall between the other's poses (of the seven
-    recorded wedges of a willow-full run each lattice missed one or two). Returns (moves,
-    (step, turn) of the lattice they are on); moves None when neither finds a way."""
-    for scale in (1.0, FINE_LATTICE):
-        lattice = (step * scale, turn * scale)
-        moves = plan_manoeuvre(footprint, costmap, pose, step=lattice[0], turn=lattice[1], **search)
-        if moves is not None:
-            break
-    return moves, lattice
+    recorded wedges of a willow-full run each lattice missed one or two). Both keep keep
+    [m] of footprint_padding; when neither finds a way, both again with none of it kept
+    (down to the unpadded footprint's edge): a robot in a channel barely wider than
+    itself, whose clearance wobbles by a centimetre as the footprint crosses cells, found
+    no way back out that kept 5 mm (willow-full seed 1, 28% explored, stuck). Returns
+    (moves, (step, turn, keep) they were found with); moves None when no search finds a way."""
+    for kept in (keep, 0.0) if keep > 0.0 else (keep,):
+        for scale in (1.0, FINE_LATTICE):
+            used = (step * scale, turn * scale, kept)
+            moves = plan_manoeuvre(footprint, costmap, pose, step=used[0], turn=used[1], keep=kept, **search)
+            if moves is not None:
+                return moves, used
+    return None, used
 
 
 class TurnAroundRecovery:
@@ -373,12 +378,13 @@ class TurnAroundRecovery:
     moved behind it) stood there: no arc forward or back stayed clear, rotate_recovery
     found that turning would hit, and explore gave its goals up one by one until "the
     robot is stuck". The search found a way out with five shunts, going into the padding
-    by 1.5 cm at most.
+    by 1.5 cm at most. The moves keep keep [m] of footprint_padding when some way out
+    does, and spend it only when none does (search_manoeuvre).
 
     Each move is driven at speed [m/s] (arcs and straight moves) or at
     min_in_place_rotational_vel [rad/s] (turns on the spot) until odometry shows it done;
     before each command the rest of the move is checked on the live costmap, and when it
-    would go below the limit the robot stops and the moves are searched again (up to
+    would go below the limit its search kept to, the robot stops and the moves are searched again (up to
     replans times). Done once the moves are driven (ok), or when no way out is found or
     time_allowance [s] runs out (not ok). frequency [Hz]: the rate step() is called at. A
     robot with room [m] of clearance or more is not in a pocket: done at once (the
@@ -410,7 +416,8 @@ class TurnAroundRecovery:
 
     def _search(self, pose, costmap):
         self.searches += 1
-        found, self.lattice = search_manoeuvre(self.footprint, costmap, pose, **self.search)
+        found, (step, turn, self.kept) = search_manoeuvre(self.footprint, costmap, pose, **self.search)
+        self.lattice = (step, turn)
         self.moves = list(found) if found is not None else None
         self.move_start = tuple(pose)
         return found is not None
@@ -419,9 +426,8 @@ class TurnAroundRecovery:
         """The rest of the current move (left: its fraction not yet driven) stays above the limit."""
         step, turn = self.lattice
         xs, ys, a = move_poses(pose, [(v, w)], step * max(left, 0.0), turn * max(left, 0.0))
-        keep = self.search["keep"]
         return footprint_free(self.footprint, costmap, pose, xs[0], ys[0], a[0],
-                              limit=lambda c0: manoeuvre_limit(c0, self.footprint.padding, keep) - 1e-3)
+                              limit=lambda c0: manoeuvre_limit(c0, self.footprint.padding, self.kept) - 1e-3)
 
     def step(self, pose, velocity, costmap):
         """Command for this period (see the class docstring)."""
