@@ -85,6 +85,27 @@ def advance(pose, vel, dt=0.05):
             y + (vel[0] * math.sin(yaw) + vel[1] * math.cos(yaw)) * dt, yaw + vel[2] * dt)
 
 
+def drive_turn_around(footprint, pose, m, clear, check=None, dt=0.05):
+    """Run a TurnAroundRecovery from pose on m for up to 20 s, driving a robot that ramps
+    to each command (acc_lim_x 2.5 m/s^2, acc_lim_theta 5 rad/s^2): (its last step, the
+    end pose, the lowest clearance on the way); check(pose), when given, must hold at
+    every pose."""
+    from my_summit_path_planning.recovery import TurnAroundRecovery
+    rec = TurnAroundRecovery(footprint, frequency=1.0 / dt)
+    rec.start(pose)
+    vel, lowest = (0.0, 0.0, 0.0), clear(pose)
+    for _ in range(int(round(20.0 / dt))):
+        s = rec.step(pose, vel, m)
+        if s.done:
+            break
+        vel = (vel[0] + float(np.clip(s.cmd[0] - vel[0], -2.5 * dt, 2.5 * dt)), 0.0,
+               vel[2] + float(np.clip(s.cmd[2] - vel[2], -5.0 * dt, 5.0 * dt)))
+        pose = advance(pose, vel, dt)
+        lowest = min(lowest, clear(pose))
+        assert check is None or check(pose), pose
+    return s, pose, lowest
+
+
 def run(planner, m, footprint, pose, vel=(0.0, 0.0, 0.0), steps=60, dt=0.05):
     """Drive a perfect robot (velocity = command) for steps periods; returns poses and results."""
     poses, results = [pose], []
@@ -810,7 +831,7 @@ def test_turn_around_recovery_drives_out_of_a_dead_end_pocket(footprint):
     drives on along the plan."""
     from my_summit_path_planning.costmap import Footprint
     from my_summit_path_planning.navfn import resample_path
-    from my_summit_path_planning.recovery import TurnAroundRecovery, manoeuvre_limit, plan_manoeuvre
+    from my_summit_path_planning.recovery import manoeuvre_limit, plan_manoeuvre
     padded = Footprint.from_params(footprint.polygon.tolist(), padding=0.02)   # explore.launch's
     res = 0.05
     m = recorded_costmap(padded, TABLE_POCKET_CELLS)
@@ -838,18 +859,7 @@ def test_turn_around_recovery_drives_out_of_a_dead_end_pocket(footprint):
     assert math.hypot(p[0] - x0, p[1] - y0) < 0.1, p
 
     assert plan_manoeuvre(padded, m, pose, keep=0.02) is None     # no way out within the padding
-    rec = TurnAroundRecovery(padded, frequency=20.0)
-    rec.start(pose)
-    vel, lowest, dt = (0.0, 0.0, 0.0), c0, 0.05
-    for _ in range(400):                        # 20 s
-        s = rec.step(pose, vel, m)
-        if s.done:
-            break
-        # a robot that ramps to the command (acc_lim_x 2.5 m/s^2, acc_lim_theta 5 rad/s^2)
-        vel = (vel[0] + float(np.clip(s.cmd[0] - vel[0], -2.5 * dt, 2.5 * dt)), 0.0,
-               vel[2] + float(np.clip(s.cmd[2] - vel[2], -5.0 * dt, 5.0 * dt)))
-        pose = advance(pose, vel, dt)
-        lowest = min(lowest, clear(pose))
+    s, pose, lowest = drive_turn_around(padded, pose, m, clear)
     assert s.done and s.ok, s.reason
     assert lowest >= manoeuvre_limit(c0, padded.padding, 0.005) - 2e-3   # 5 mm of the padding kept
     assert math.hypot(pose[0] - x0, pose[1] - y0) >= 0.2
@@ -908,7 +918,7 @@ def test_turn_around_spends_the_last_of_the_padding_only_when_nothing_else_gets_
     the unpadded footprint touching a cell; DWA then drives on down the plan."""
     from my_summit_path_planning.costmap import Footprint
     from my_summit_path_planning.navfn import resample_path
-    from my_summit_path_planning.recovery import TurnAroundRecovery, plan_manoeuvre, search_manoeuvre
+    from my_summit_path_planning.recovery import plan_manoeuvre, search_manoeuvre
     padded = Footprint.from_params(footprint.polygon.tolist(), padding=0.02)   # explore.launch's
     res = 0.05
     m = recorded_costmap(padded, LEG_CHANNEL_CELLS)
@@ -927,19 +937,8 @@ def test_turn_around_spends_the_last_of_the_padding_only_when_nothing_else_gets_
     assert plan_manoeuvre(padded, m, pose, keep=0.005, step=0.03, turn=0.06) is None
     moves, (_, _, kept) = search_manoeuvre(padded, m, pose)
     assert moves and kept == 0.0
-    rec = TurnAroundRecovery(padded, frequency=20.0)
-    rec.start(pose)
-    vel, lowest, dt = (0.0, 0.0, 0.0), c0, 0.05
-    for _ in range(400):                        # 20 s
-        s = rec.step(pose, vel, m)
-        if s.done:
-            break
-        # a robot that ramps to the command (acc_lim_x 2.5 m/s^2, acc_lim_theta 5 rad/s^2)
-        vel = (vel[0] + float(np.clip(s.cmd[0] - vel[0], -2.5 * dt, 2.5 * dt)), 0.0,
-               vel[2] + float(np.clip(s.cmd[2] - vel[2], -5.0 * dt, 5.0 * dt)))
-        pose = advance(pose, vel, dt)
-        lowest = min(lowest, clear(pose))
-        assert not footprint_hits(m, footprint, *pose), pose
+    s, pose, lowest = drive_turn_around(padded, pose, m, clear,
+                                        check=lambda p: not footprint_hits(m, footprint, *p))
     assert s.done and s.ok, s.reason
     assert lowest >= -padded.padding - 1e-3
     assert math.hypot(pose[0] - x0, pose[1] - y0) >= 0.25
