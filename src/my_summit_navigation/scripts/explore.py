@@ -9,8 +9,9 @@ x size), sends move_base a goal there and repeats at planner_frequency. A goal m
 aborts, or one with no progress for progress_timeout, is blacklisted (the timer runs on
 when the choice flips back to a goal it was driving to moments ago: frontiers.GoalProgress);
 one the robot comes within REACHED of, its frontier in the laser's view, counts as
-reached. When no frontier is left (or none can be reached, or the robot is stuck) it
-stops, says so, and saves the map.
+reached. When no frontier is left, the goals given up for no progress get one more try
+(frontiers.Blacklist). When none is left then (or none can be reached, or the robot is
+stuck) it stops, says so, and saves the map.
 
   action client of move_base (move_base_msgs/MoveBaseAction)
   sub   ~costmap_topic (default move_base/global_costmap/costmap, nav_msgs/OccupancyGrid)
@@ -81,7 +82,7 @@ class Explore:
         self.lock = threading.Lock()
         self.costmap = None
         self.map_msg = None
-        self.blacklist = []
+        self.blacklist = fr.Blacklist(self.params.blacklist_radius)
         self.goal = None            # (x, y) of the active goal
         self.goal_centroid = None   # (x, y) of its frontier's centroid
         self.goal_state = None
@@ -142,7 +143,7 @@ class Explore:
         up for no progress count: move_base aborts a goal in an obstacle at once."""
         rospy.logwarn(f"explore: blacklisting ({self.goal[0]:.2f}, {self.goal[1]:.2f}): {why} "
                       f"(robot at ({robot[0]:.2f}, {robot[1]:.2f}))")
-        self.blacklist.append(self.goal)
+        self.blacklist.add(self.goal, no_progress=no_progress)
         self.failed += 1
         self.client.cancel_goal()
         self.goal = None
@@ -178,7 +179,7 @@ class Explore:
                     # (the next goal preempts it): what can be seen from there has been
                     # seen; a frontier whose goal falls here again is a pocket the laser
                     # cannot fill
-                    self.blacklist.append(self.goal)
+                    self.blacklist.add(self.goal)
                     self.goal = None
                 elif self.progress.update(d, now):
                     over = self.give_up_goal(f"no progress for {self.progress_timeout:.0f} s", robot,
@@ -205,6 +206,15 @@ class Explore:
             self.empty_rounds += 1
             if self.empty_rounds < EMPTY_ROUNDS:
                 rospy.loginfo(f"explore: no frontier found ({self.empty_rounds}/{EMPTY_ROUNDS}); looking again")
+                return None
+            again = self.blacklist.second_chance()
+            if again:
+                # goals given up for no progress may have met a stall, not a closed way
+                for g in again:
+                    self.progress.forget(g)
+                self.empty_rounds = 0
+                rospy.logwarn(f"explore: no frontier left but {len(again)} given up for no progress: "
+                              "one more try at " + ", ".join(f"({x:.2f}, {y:.2f})" for x, y in again))
                 return None
             return ("no frontiers left" if self.failed == 0 else
                     f"no reachable frontier left ({self.failed} goals failed and blacklisted)")

@@ -189,3 +189,43 @@ def test_goal_progress_survives_a_flickering_choice_of_goals():
     p.start(b, 11.0)
     assert not p.start(a, 100.0)
     assert not p.update(5.0, 100.0) and not p.update(5.0, 129.0)
+
+
+def test_goal_progress_forgets_a_goal_given_up():
+    p = fr.GoalProgress(timeout=30.0)
+    p.start((5.0, 0.0), 0.0)
+    p.update(5.0, 0.0)
+    assert p.update(5.0, 31.0)                   # given up
+    p.forget((5.1, 0.0))
+    assert not p.start((5.0, 0.0), 40.0)         # sent again: a fresh watch
+    assert not p.update(5.0, 40.0) and not p.update(5.0, 69.0) and p.update(5.0, 71.0)
+
+
+def test_blacklist_gives_goals_without_progress_one_more_try():
+    b = fr.Blacklist(radius=0.5)
+    b.add((1.0, 0.0))                            # reached
+    b.add((2.0, 0.0), no_progress=False)         # aborted by move_base
+    b.add((3.0, 0.0), no_progress=True)          # no progress: a stall, maybe
+    assert sorted(b) == [(1.0, 0.0), (2.0, 0.0), (3.0, 0.0)]
+    assert b.second_chance() == [(3.0, 0.0)]
+    assert sorted(b) == [(1.0, 0.0), (2.0, 0.0)]
+    assert b.second_chance() == []               # nothing waits: exploration may end
+    # the goal (its frontier moved a little) given up again: it stays for good
+    b.add((3.2, 0.1), no_progress=True)
+    assert b.second_chance() == [] and (3.2, 0.1) in list(b)
+    # a goal given up for no progress elsewhere still gets its try
+    b.add((9.0, 0.0), no_progress=True)
+    assert b.second_chance() == [(9.0, 0.0)]
+
+
+def test_a_released_goal_is_found_again():
+    g = corridor_world()
+    robot = (0.5, 1.0)
+    first = fr.find_frontiers(g, 0.1, (0.0, 0.0), robot)
+    assert len(first) == 1
+    b = fr.Blacklist(radius=fr.FrontierParams().blacklist_radius)
+    b.add(first[0].goal, no_progress=True)
+    assert fr.find_frontiers(g, 0.1, (0.0, 0.0), robot, blacklist=b) == []
+    b.second_chance()
+    again = fr.find_frontiers(g, 0.1, (0.0, 0.0), robot, blacklist=b)
+    assert [f.goal for f in again] == [first[0].goal]

@@ -283,6 +283,12 @@ class GoalProgress:
         self.goals.append(self.active)
         return False
 
+    def forget(self, goal):
+        """Drop the watch of goals within same of goal: sent again later, it starts afresh."""
+        self.goals = [g for g in self.goals if math.hypot(goal[0] - g[0][0], goal[1] - g[0][1]) > self.same]
+        if self.active is not None and self.active not in self.goals:
+            self.active = None
+
     def stalled(self, now):
         """[s] the active goal has been active without progress (0 when none is active)."""
         return 0.0 if self.active is None or self.active[1] == math.inf else max(0.0, now - self.active[2])
@@ -296,6 +302,49 @@ class GoalProgress:
             g[1], g[2] = distance, now
             return False
         return self.timeout > 0 and now - g[2] > self.timeout
+
+
+class Blacklist:
+    """Goals explore sends no more, with one more try for those given up for no progress.
+
+    explore_lite's blacklist is permanent. A goal move_base aborts (no path, or its
+    recoveries ran out) is given up for good; so is one reached (its frontier was looked
+    at). But a goal given up because the robot made no progress for progress_timeout may
+    only have met a local planner stall in furniture: on willow-full (seed 1) the one
+    frontier into the west wing's hall was given up so, 6 m away, exploration ended with
+    "no reachable frontier left" at 90.0%, and in the final map a path there was open.
+    So once no frontier is left, each such goal is released once (second_chance) and may
+    be sent again; given up a second time, it stays."""
+
+    def __init__(self, radius=0.5):
+        self.radius = float(radius)
+        self.points = []     # (x, y) of every goal not to send (find_frontiers' blacklist)
+        self.waiting = []    # given up for no progress, not yet released
+        self.released = []   # released once: no further chance
+
+    def __iter__(self):
+        return iter(self.points)
+
+    def __len__(self):
+        return len(self.points)
+
+    def _near(self, goal, points):
+        return any(math.hypot(goal[0] - x, goal[1] - y) < self.radius for x, y in points)
+
+    def add(self, goal, no_progress=False):
+        """Blacklist goal (x, y); no_progress: given up for no progress, so it gets one more
+        try unless it (or a goal within radius of it) already had one."""
+        goal = (float(goal[0]), float(goal[1]))
+        self.points.append(goal)
+        if no_progress and not self._near(goal, self.released):
+            self.waiting.append(goal)
+
+    def second_chance(self):
+        """Release the goals waiting for one more try; returns them (empty when none)."""
+        out, self.waiting = self.waiting, []
+        self.released.extend(out)
+        self.points = [p for p in self.points if p not in out]
+        return out
 
 
 def explored_share(known, reachable_free):
