@@ -216,8 +216,14 @@ class Explore:
                 rospy.logwarn(f"explore: no frontier left but {len(again)} given up for no progress: "
                               "one more try at " + ", ".join(f"({x:.2f}, {y:.2f})" for x, y in again))
                 return None
-            return ("no frontiers left" if self.failed == 0 else
-                    f"no reachable frontier left ({self.failed} goals failed and blacklisted)")
+            beyond = fr.frontiers_out_of_reach(grid, info.resolution, (info.origin.position.x, info.origin.position.y),
+                                               robot, self.params)
+            if self.failed == 0 and beyond == 0:
+                return "no frontiers left"
+            why = [f"{self.failed} goals failed and blacklisted"] if self.failed else []
+            if beyond:
+                why.append(f"{beyond} frontier{'s' if beyond > 1 else ''} seen where the robot cannot pass")
+            return f"no reachable frontier left ({'; '.join(why)})"
         self.empty_rounds = 0
         if self.goal is not None and any(math.hypot(f.goal[0] - self.goal[0], f.goal[1] - self.goal[1]) < SAME_GOAL
                                          for f in found[:3]):

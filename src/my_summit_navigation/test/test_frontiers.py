@@ -229,3 +229,34 @@ def test_a_released_goal_is_found_again():
     b.second_chance()
     again = fr.find_frontiers(g, 0.1, (0.0, 0.0), robot, blacklist=b)
     assert [f.goal for f in again] == [first[0].goal]
+
+
+def test_frontiers_out_of_reach_are_counted():
+    g = corridor_world()
+    robot = (0.5, 1.0)
+    assert fr.frontiers_out_of_reach(g, 0.1, (0.0, 0.0), robot) == 0   # the one frontier is reachable
+    g[5:15, 10] = 100                 # a wall across the corridor with a slot of 2 cells
+    g[9:11, 10] = 99                  # the slot: inscribed, the robot centre cannot pass
+    assert fr.find_frontiers(g, 0.1, (0.0, 0.0), robot) == []
+    assert fr.frontiers_out_of_reach(g, 0.1, (0.0, 0.0), robot) == 1
+    # too small to count
+    assert fr.frontiers_out_of_reach(g, 0.1, (0.0, 0.0), robot, fr.FrontierParams(min_frontier_size=1.5)) == 0
+
+
+def test_coverage_leaves_out_space_beyond_a_gap_narrower_than_the_robot():
+    world = np.full((20, 40), 100, np.int16)
+    world[1:19, 1:39] = 0
+    world[:, 20] = 100
+    world[9:12, 20] = 0                    # a 0.3 m slot between the two halves
+    spawn = (1.0, 1.0, 0.0)
+    slam = np.full((20, 40), -1, np.int16)
+    slam[:, :19] = 0                       # the west half known (spawn-centred frame)
+    assert fr.exploration_coverage(world, 0.1, (0.0, 0.0), spawn, slam, 0.1, (-1.0, -1.0)) < 0.6
+    # a robot of radius 0.3 m cannot pass the slot: the west half is all it can reach,
+    # and its walls' neighbours count up to the wall
+    assert fr.exploration_coverage(world, 0.1, (0.0, 0.0), spawn, slam, 0.1, (-1.0, -1.0),
+                                   robot_radius=0.3) == 1.0
+    # with a slot wide enough it can
+    world[5:16, 20] = 0
+    assert fr.exploration_coverage(world, 0.1, (0.0, 0.0), spawn, slam, 0.1, (-1.0, -1.0),
+                                   robot_radius=0.3) < 0.6

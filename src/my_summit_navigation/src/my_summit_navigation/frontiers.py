@@ -196,6 +196,22 @@ def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), 
 VIEW_HALF_ANGLE = math.radians(110.0)
 
 
+def frontiers_out_of_reach(grid, resolution, origin, robot_xy, params=FrontierParams()):
+    """How many frontiers (groups of at least min_frontier_size) border known passable
+    cells the robot cannot reach: space seen through a gap narrower than the robot, or
+    round furniture. find_frontiers leaves them out; explore names them when it stops."""
+    grid = np.asarray(grid)
+    rc = (int((robot_xy[1] - origin[1]) / resolution), int((robot_xy[0] - origin[0]) / resolution))
+    reach, _ = reachable_mask(grid, rc)
+    passable = (grid >= 0) & (grid < INSCRIBED)
+    kernel4 = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
+    near_other = cv2.dilate((passable & ~reach).astype(np.uint8), kernel4).astype(bool)
+    near_reach = cv2.dilate(reach.astype(np.uint8), kernel4).astype(bool)
+    frontier = (grid == UNKNOWN) & near_other & ~near_reach
+    n, _, stats, _ = cv2.connectedComponentsWithStats(frontier.astype(np.uint8), connectivity=8)
+    return int(np.count_nonzero(stats[1:, cv2.CC_STAT_AREA] * resolution >= params.min_frontier_size))
+
+
 def in_view(pose, point, half_angle=VIEW_HALF_ANGLE):
     """True when point (x, y) lies within half_angle of the heading of pose (x, y, yaw):
     the laser, looking forward, sees it. A point on the robot counts as in view."""
@@ -357,22 +373,30 @@ def explored_share(known, reachable_free):
     return float((near_known & reachable_free).sum()) / total
 
 
-def exploration_coverage(world, world_res, world_origin, spawn, slam, slam_res, slam_origin):
+def exploration_coverage(world, world_res, world_origin, spawn, slam, slam_res, slam_origin, robot_radius=0.0):
     """Share of the world's reachable free area that the SLAM map knows (free or occupied).
 
     world: OccupancyGrid values of the true map (0 free, 100 occupied, -1 outside), row 0
     = lowest y, cell (0, 0)'s corner at world_origin (x, y); spawn: (x, y, yaw) where the
     robot started, i.e. the SLAM map frame's pose in the world; slam: the SLAM map's values
     with slam_res and slam_origin (x, y) in its own frame. The reachable free area is the
-    4-connected free component holding the spawn point."""
+    4-connected free component holding the spawn point; with robot_radius [m] > 0, the
+    free cells within robot_radius of where a disc of that radius can go from the spawn
+    point (space seen through a gap narrower than the robot does not count)."""
     world = np.asarray(world)
     free = world == 0
-    labels, _ = ndimage.label(free)
+    centre_ok = free
+    if robot_radius > 0.0:
+        centre_ok = ndimage.distance_transform_edt(free) * world_res > robot_radius
+    labels, _ = ndimage.label(centre_ok)
     sr = int((spawn[1] - world_origin[1]) / world_res)
     sc = int((spawn[0] - world_origin[0]) / world_res)
     if labels[sr, sc] == 0:
-        raise ValueError(f"the spawn point ({spawn[0]:.2f}, {spawn[1]:.2f}) is not in free space")
+        raise ValueError(f"the spawn point ({spawn[0]:.2f}, {spawn[1]:.2f}) is not in free space"
+                         + (f" {robot_radius:.2f} m from any obstacle" if robot_radius > 0.0 else ""))
     reach = labels == labels[sr, sc]
+    if robot_radius > 0.0:
+        reach = (ndimage.distance_transform_edt(~reach) * world_res <= robot_radius) & free
     rr, cc = np.nonzero(reach)
     wx = world_origin[0] + (cc + 0.5) * world_res - spawn[0]
     wy = world_origin[1] + (rr + 0.5) * world_res - spawn[1]
