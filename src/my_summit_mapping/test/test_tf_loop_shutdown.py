@@ -2,8 +2,12 @@
 
 rospy closes the node's publishers when it shuts down, and the thread can be between its
 `rospy.is_shutdown()` check and the publish: that publish raises "publish() to a closed
-topic". The thread must end quietly then (CI once printed the traceback on a Ctrl-C), and
-still raise when the topic is closed while the node is running.
+topic". The thread must end quietly then (CI printed the traceback on a Ctrl-C, twice),
+and still raise when the topic is closed while the node is running.
+
+rospy.core.signal_shutdown sets is_shutdown_requested(), runs the pre-shutdown hooks (the
+registration manager's cleanup closes every topic there) and only then sets
+is_shutdown(): the fake below keeps that order, and a check of is_shutdown() alone fails.
 """
 import importlib.machinery
 import importlib.util
@@ -67,9 +71,11 @@ def fake_clock(monkeypatch):
 
 def test_tf_loop_ends_quietly_when_shutdown_closes_the_publisher(monkeypatch, fake_clock):
     module = _load_node_module()
-    state = {"shut": False}
-    monkeypatch.setattr(rospy, "is_shutdown", lambda: state["shut"])
-    broadcaster = _ClosingBroadcaster(3, on_close=lambda: state.update(shut=True))
+    state = {"requested": False}
+    # the topics close while shutdown is requested and is_shutdown() is still False
+    monkeypatch.setattr(rospy, "is_shutdown", lambda: False)
+    monkeypatch.setattr(rospy.core, "is_shutdown_requested", lambda: state["requested"])
+    broadcaster = _ClosingBroadcaster(3, on_close=lambda: state.update(requested=True))
     _node(module, broadcaster).publish_tf_loop()   # returns, no exception
     assert broadcaster.sent == 3
 
@@ -77,6 +83,7 @@ def test_tf_loop_ends_quietly_when_shutdown_closes_the_publisher(monkeypatch, fa
 def test_tf_loop_still_raises_a_closed_topic_while_running(monkeypatch, fake_clock):
     module = _load_node_module()
     monkeypatch.setattr(rospy, "is_shutdown", lambda: False)
+    monkeypatch.setattr(rospy.core, "is_shutdown_requested", lambda: False)
     broadcaster = _ClosingBroadcaster(2, on_close=lambda: None)
     with pytest.raises(rospy.ROSException, match="closed topic"):
         _node(module, broadcaster).publish_tf_loop()
