@@ -35,7 +35,8 @@ WORLDS = {
     "two_rooms": os.path.join(WS, "src", "summit_xl_sim", "worlds", "two_rooms.yaml"),
 }
 CLEARANCE = 0.8          # [m] start poses at least this far from obstacles
-WALL_LIMIT = {"builtin": 900.0, "willow": 3600.0, "two_rooms": 400.0}  # [s] per run (willow: room for the second-chance round at the end)
+# [s] per run; willow's leaves room for explore's second-chance round at the end
+WALL_LIMIT = {"builtin": 900.0, "willow": 3600.0, "two_rooms": 400.0}
 
 
 def start_poses(world_yaml, n, seed):

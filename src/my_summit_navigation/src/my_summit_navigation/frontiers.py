@@ -33,6 +33,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 UNKNOWN, INSCRIBED = -1, 99   # OccupancyGrid values of costmap_2d's NO_INFORMATION / INSCRIBED
+KERNEL4 = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)   # a cell and its 4 neighbours
 
 
 @dataclass
@@ -59,12 +60,22 @@ class FrontierParams:
     goal_search: float = 1.0          # [m] ... if there is such a cell this close to the edge
 
 
+def passable_mask(grid):
+    """Known cells the robot centre may stand on: cost below the inscribed cost."""
+    return (grid >= 0) & (grid < INSCRIBED)
+
+
+def robot_cell(robot_xy, origin, resolution):
+    """(row, col) of the cell holding robot_xy (x, y) [m]; origin: cell (0, 0)'s corner."""
+    return int((robot_xy[1] - origin[1]) / resolution), int((robot_xy[0] - origin[0]) / resolution)
+
+
 def reachable_mask(grid, start_cell):
     """(mask, start): the cells the robot centre reaches from start_cell (row, col), the
     4-connected component of known cells below the inscribed cost, and the cell it was
     grown from. When start_cell is blocked or unknown (the robot close to a wall) the
     nearest passable cell within 10 cells is used; none: an empty mask."""
-    passable = (grid >= 0) & (grid < INSCRIBED)
+    passable = passable_mask(grid)
     r, c = start_cell
     if not (0 <= r < grid.shape[0] and 0 <= c < grid.shape[1]):
         return np.zeros_like(passable), (r, c)
@@ -147,13 +158,11 @@ def find_frontiers(grid, resolution, origin, robot_xy, params=FrontierParams(), 
     origin: (x, y) [m] of cell (0, 0)'s corner. Returns [Frontier]."""
     grid = np.asarray(grid)
     ox, oy = origin
-    rc = (int((robot_xy[1] - oy) / resolution), int((robot_xy[0] - ox) / resolution))
-    reach, rc = reachable_mask(grid, rc)
+    reach, rc = reachable_mask(grid, robot_cell(robot_xy, origin, resolution))
     if not reach.any():
         return []
     unknown = grid == UNKNOWN
-    kernel4 = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
-    near_reach = cv2.dilate(reach.astype(np.uint8), kernel4).astype(bool)
+    near_reach = cv2.dilate(reach.astype(np.uint8), KERNEL4).astype(bool)
     frontier = unknown & near_reach
     if not frontier.any():
         return []
@@ -201,12 +210,9 @@ def frontiers_out_of_reach(grid, resolution, origin, robot_xy, params=FrontierPa
     cells the robot cannot reach: space seen through a gap narrower than the robot, or
     round furniture. find_frontiers leaves them out; explore names them when it stops."""
     grid = np.asarray(grid)
-    rc = (int((robot_xy[1] - origin[1]) / resolution), int((robot_xy[0] - origin[0]) / resolution))
-    reach, _ = reachable_mask(grid, rc)
-    passable = (grid >= 0) & (grid < INSCRIBED)
-    kernel4 = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
-    near_other = cv2.dilate((passable & ~reach).astype(np.uint8), kernel4).astype(bool)
-    near_reach = cv2.dilate(reach.astype(np.uint8), kernel4).astype(bool)
+    reach, _ = reachable_mask(grid, robot_cell(robot_xy, origin, resolution))
+    near_other = cv2.dilate((passable_mask(grid) & ~reach).astype(np.uint8), KERNEL4).astype(bool)
+    near_reach = cv2.dilate(reach.astype(np.uint8), KERNEL4).astype(bool)
     frontier = (grid == UNKNOWN) & near_other & ~near_reach
     n, _, stats, _ = cv2.connectedComponentsWithStats(frontier.astype(np.uint8), connectivity=8)
     return int(np.count_nonzero(stats[1:, cv2.CC_STAT_AREA] * resolution >= params.min_frontier_size))
