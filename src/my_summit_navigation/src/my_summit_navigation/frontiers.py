@@ -347,9 +347,6 @@ class Blacklist:
     def __iter__(self):
         return iter(self.points)
 
-    def __len__(self):
-        return len(self.points)
-
     def _near(self, goal, points):
         return any(math.hypot(goal[0] - x, goal[1] - y) < self.radius for x, y in points)
 
