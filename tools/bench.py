@@ -48,11 +48,11 @@ from roslaunch_session import RoslaunchSession, wait_for  # noqa: E402
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(WS, "output")
-SHARED = os.path.normpath(os.path.join(WS, "..", "shared", "data"))
+DATA = os.path.join(WS, "data")  # real maps and logs (data/README.md)
 WORLDS = {
     "built-in course building": os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.yaml"),
-    "willow-full (0.1 m)": os.path.join(SHARED, "maps", "willow-full.yaml"),
-    "willow-full-0.05": os.path.join(SHARED, "maps", "willow-full-0.05.yaml"),
+    "willow-full (0.1 m)": os.path.join(WS, "src", "my_summit_navigation", "maps", "willow-full.yaml"),
+    "willow-full-0.05": os.path.join(DATA, "maps", "willow-full-0.05.yaml"),
 }
 
 

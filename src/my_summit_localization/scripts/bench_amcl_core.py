@@ -59,10 +59,7 @@ from my_summit_localization.particle_filter import ParticleFilter  # noqa: E402
 SIM_PKG = os.path.join(os.path.dirname(PKG), "summit_xl_sim")
 BUILTIN = os.path.join(SIM_PKG, "worlds", "course_building.yaml")
 TOUR = os.path.join(SIM_PKG, "worlds", "course_building_tour.yaml")
-WILLOW = os.path.normpath(os.path.join(PKG, "..", "..", "..", "shared", "data", "maps",
-                                       "willow-full-0.05.yaml"))
-if not os.path.exists(WILLOW):
-    WILLOW = "/work/shared/data/maps/willow-full-0.05.yaml"
+WILLOW = os.path.normpath(os.path.join(PKG, "..", "..", "data", "maps", "willow-full-0.05.yaml"))
 
 SIM_DT = 0.005          # simulator step [s]
 CONTROL_EVERY = 10      # steps per control command (20 Hz)

@@ -155,9 +155,8 @@ def test_beam_model_matches_reference(world):
 
 
 def test_willow_map_loads_and_scores():
-    path = "/work/shared/data/maps/willow-full-0.05.yaml"
-    if not os.path.exists(path):
-        pytest.skip("willow map not present")
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "..", "data", "maps",
+                        "willow-full-0.05.yaml")  # the workspace's data/
     grid = load_map(path)
     model = LikelihoodFieldModel(grid, AmclConfig())
     out = model.weights(np.array([[10.0, 10.0, 0.0]]), np.array([1.0, 2.0]), np.array([0.0, 1.0]),

@@ -34,7 +34,7 @@ from my_summit_mapping import carmen, metrics  # noqa: E402
 from my_summit_mapping.rbpf import RbpfSlam  # noqa: E402
 from my_summit_mapping.slam_config import SlamConfig  # noqa: E402
 
-DATA_DIR = os.path.join(HERE, "..", "..", "..", "..", "shared", "data", "carmen")
+DATA_DIR = os.path.join(HERE, "..", "..", "..", "data", "carmen")  # the workspace's data/
 LOGS = {"intel": "intel-corrected.log.gz", "aces": "aces-corrected.log.gz"}
 BENCH_PARAMS = dict(particles=30, linearUpdate=0.2, angularUpdate=0.1, maxUrange=30.0,
                     maxRange=80.0, xmin=-40.0, ymin=-40.0, xmax=40.0, ymax=40.0)

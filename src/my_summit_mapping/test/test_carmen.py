@@ -9,8 +9,8 @@ from numpy.testing import assert_allclose
 
 from my_summit_mapping import carmen, metrics
 
-INTEL = os.path.join(os.path.dirname(__file__), "..", "..", "..", "..", "shared", "data",
-                     "carmen", "intel-corrected.log.gz")
+INTEL = os.path.join(os.path.dirname(__file__), "..", "..", "..", "data", "carmen",
+                     "intel-corrected.log.gz")  # the workspace's data/
 
 
 def _write_log(path, lines):
@@ -44,7 +44,6 @@ def test_beam_angles_span():
     assert_allclose(np.diff(carmen.beam_angles(180)), math.pi / 180)
 
 
-@pytest.mark.skipif(not os.path.exists(INTEL), reason="shared CARMEN data not present")
 def test_reads_intel_log():
     log = carmen.read_carmen(INTEL)
     assert log.ranges.shape == (910, 180) and log.poses.shape == (910, 3)

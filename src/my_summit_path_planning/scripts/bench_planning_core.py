@@ -38,8 +38,7 @@ CONFIG = os.path.join(HERE, "..", "config")
 WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
 WORKSPACE = os.path.dirname(WS_SRC)
 BUILTIN = os.path.join(WS_SRC, "summit_xl_sim", "worlds", "course_building.yaml")
-# Shared data sit beside the workspace (<workspace>/../shared), in a CI clone as here.
-WILLOW = os.path.normpath(os.path.join(WORKSPACE, "..", "shared", "data", "maps", "willow-full-0.05.yaml"))
+WILLOW = os.path.join(WORKSPACE, "data", "maps", "willow-full-0.05.yaml")  # the workspace's data/
 SIM_DT = 0.005            # [s] simulator step
 MIN_PAIR_DIST = 2.0       # [m] closed-loop start-goal distance at least
 FAR_PAIR_DIST = 25.0      # [m] NavFn benchmark pairs at least this far apart

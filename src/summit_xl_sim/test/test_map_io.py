@@ -8,8 +8,8 @@ import pytest
 
 from summit_xl_sim.map_io import GridMap, MapError, image_to_grid, load_map, save_map
 
-SHARED = os.path.join(os.path.dirname(__file__), "..", "..", "..", "..", "shared", "data")
-REF = os.path.join(SHARED, "map_server_tests")
+# The workspace's data/ folder (data/README.md names each source).
+REF = os.path.join(os.path.dirname(__file__), "..", "..", "..", "data", "map_server_tests")
 EXPECTED = np.array([
     0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
     100, 100, 100, 100, 0, 0, 100, 100, 100, 0,

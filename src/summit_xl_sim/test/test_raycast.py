@@ -10,7 +10,7 @@ from summit_xl_sim.world import World
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BUILTIN = os.path.join(HERE, "..", "worlds", "course_building.yaml")
-WILLOW = os.path.join(HERE, "..", "..", "..", "..", "shared", "data", "maps", "willow-full.yaml")
+WILLOW = os.path.join(HERE, "..", "..", "my_summit_navigation", "maps", "willow-full.yaml")
 ANGLES = np.linspace(-2.356194490192345, 2.356194490192345, 1081)
 
 
