@@ -109,7 +109,7 @@ COMMITTED_MAP = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__f
 @pytest.mark.integration
 def test_map_saver_and_autosaver_save_the_served_map(tmp_path):
     """map_server -> map_saver (and map_autosaver, saving at shutdown) -> the same map."""
-    from summit_xl_sim.map_io import load_map
+    from summit_nav_common.map_io import load_map
     port = free_port()
     env = env_for(tmp_path, port)
     server = subprocess.Popen(["roslaunch", "-p", str(port), "my_summit_mapping", "provide_map.launch"],

@@ -35,35 +35,13 @@ import time
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from roslaunch_session import stop_process_tree  # noqa: E402
+from summit_nav_common.geometry import compose, quaternion_to_yaw as yaw_of, relative, wrap_angle as wrap  # noqa: F401
 
 TOUR_FILE = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building_tour.yaml")
 WORLD_DESCRIPTION = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.world.yaml")
 SPOT_ORDER = ("table", "room", "turtle")   # the course's calls: hall -> fetch room table -> centre -> poster
 RECORD_ORDER = ("room", "turtle", "table")  # the order the spots are recorded in (course step 2)
 EYE_XY_TOL, EYE_YAW_TOL, EYE_TRIES = 0.15, 0.12, 2   # [m], [rad]: "there" by eye (above the goal tolerance)
-
-
-def wrap(a):
-    """Angle wrapped to [-pi, pi) [rad]."""
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
-def relative(origin, pose):
-    """pose (x, y, yaw) seen from origin (x, y, yaw): origin^-1 (+) pose."""
-    c, s = math.cos(origin[2]), math.sin(origin[2])
-    dx, dy = pose[0] - origin[0], pose[1] - origin[1]
-    return (c * dx + s * dy, -s * dx + c * dy, wrap(pose[2] - origin[2]))
-
-
-def compose(a, b):
-    """Pose a (+) b of (x, y, yaw) tuples."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2]))
-
-
-def yaw_of(q):
-    """Yaw [rad] of a geometry_msgs/Quaternion."""
-    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
 
 
 def world_spots(path=WORLD_DESCRIPTION):

@@ -131,7 +131,7 @@ def draw_costmap_picture(costmap_msg, plan_xy, driven_xy, spot, path, title, sca
 def draw_particles_picture(map_yaml, clouds, path, scale=3):
     """The saved map twice side by side, each with one amcl particle cloud (red arrows)
     and the true robot pose (green): clouds is [(title, [(x, y, yaw)], truth_pose_map)]."""
-    from summit_xl_sim.map_io import load_map
+    from summit_nav_common.map_io import load_map
     m = load_map(map_yaml)
     r0, r1, c0, c1 = known_bbox(m.data, int(round(1.0 / m.resolution)))
     data = m.data[r0:r1, c0:c1]

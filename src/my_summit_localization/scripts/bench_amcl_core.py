@@ -47,7 +47,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(PKG, "src"))
 
-from summit_xl_sim.map_io import load_map  # noqa: E402
+from summit_nav_common.map_io import load_map  # noqa: E402
 from summit_xl_sim.sim import Simulation  # noqa: E402
 from summit_xl_sim.tour import TourParams, tour_command  # noqa: E402
 from summit_xl_sim.world import World, WorldError  # noqa: E402

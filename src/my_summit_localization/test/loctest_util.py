@@ -19,25 +19,9 @@ import rospy
 
 sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("summit_xl_sim"), "test"))
 from simtest_util import Latest, sleep_sim, yaw_of  # noqa: E402,F401  (re-exported to the tests)
+from summit_nav_common.geometry import compose, inverse, wrap_angle as wrap  # noqa: F401  (used by the tests)
 
 WALL_TIMEOUT = 60.0   # [s] default wall-clock bound of a wait
-
-
-def wrap(a):
-    """Angle wrapped to [-pi, pi) [rad]."""
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
-def compose(a, b):
-    """Pose a (+) b of (x, y, yaw) tuples."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2]))
-
-
-def inverse(a):
-    """Inverse of pose a (x, y, yaw)."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return (-c * a[0] - s * a[1], s * a[0] - c * a[1], wrap(-a[2]))
 
 
 def spawn_in_world():
@@ -136,7 +120,7 @@ def register_map(map_yaml, world_yaml, guess, span=0.15, step=0.01, span_yaw_deg
     """
     import numpy as np
     from scipy import ndimage
-    from summit_xl_sim.map_io import load_map
+    from summit_nav_common.map_io import load_map
 
     world, m = load_map(world_yaml), load_map(map_yaml)
     dist = ndimage.distance_transform_edt(world.data != 100) * world.resolution

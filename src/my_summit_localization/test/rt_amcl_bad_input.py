@@ -21,10 +21,10 @@ import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_srvs.srv import Empty
-from summit_xl_sim.map_io import load_map
+from summit_nav_common.map_io import load_map
 
 from my_summit_localization.srv import MyServiceMessage
-from my_summit_mapping.map_msgs import grid_to_msg
+from summit_nav_common.ros.map_msgs import grid_to_msg
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from loctest_util import (Latest, RosoutWatcher, map_in_world, pose_error, sleep_sim,  # noqa: E402

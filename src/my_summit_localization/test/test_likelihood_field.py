@@ -6,7 +6,7 @@ import os
 import numpy as np
 import pytest
 
-from summit_xl_sim.map_io import GridMap, load_map
+from summit_nav_common.map_io import GridMap, load_map
 from summit_xl_sim.world import World
 
 from my_summit_localization.amcl_config import AmclConfig

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2, norm
 
-from summit_xl_sim.map_io import GridMap
+from summit_nav_common.map_io import GridMap
 from summit_xl_sim.world import World
 
 from my_summit_localization.amcl_config import AmclConfig

@@ -8,9 +8,9 @@ import rostest
 from nav_msgs.msg import MapMetaData, OccupancyGrid
 from nav_msgs.srv import GetMap
 from numpy.testing import assert_allclose, assert_array_equal
-from summit_xl_sim.map_io import load_map
+from summit_nav_common.map_io import load_map
 
-from my_summit_mapping import map_msgs
+from summit_nav_common.ros import map_msgs
 
 TIMEOUT = 20.0  # [s] for a latched message or the service
 

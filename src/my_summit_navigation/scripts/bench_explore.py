@@ -43,7 +43,7 @@ def start_poses(world_yaml, n, seed):
     """n seeded (x, y, yaw) in the world's main free component, CLEARANCE from obstacles."""
     import cv2
     from scipy import ndimage
-    from summit_xl_sim.map_io import load_map
+    from summit_nav_common.map_io import load_map
     m = load_map(world_yaml)
     free = m.data == 0
     labels, k = ndimage.label(free)
@@ -72,7 +72,7 @@ def one_run(world_name, pose, speed, out_dir):
         from std_msgs.msg import Bool, String, UInt32
         from my_summit_mapping.slam_config import SlamConfig
         from my_summit_navigation.frontiers import exploration_coverage
-        from summit_xl_sim.map_io import load_map
+        from summit_nav_common.map_io import load_map
         from summit_xl_sim.world import World
         sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
         from bench_slam_sim import TourRecorder, write_png

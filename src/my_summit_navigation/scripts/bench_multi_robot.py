@@ -40,7 +40,7 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 from roslaunch_session import RoslaunchSession, run_bounded, wait_for, wait_for_sim_time_param  # noqa: E402
 
 from my_summit_navigation.multi_robot import robots_param  # noqa: E402
-from summit_xl_sim.map_io import load_map  # noqa: E402
+from summit_nav_common.map_io import load_map  # noqa: E402
 
 MAP_YAML = os.path.join(PKG, "maps", "willow-full.yaml")
 LINE = re.compile(r"MULTI_ROBOT (.*?) text=")

@@ -48,7 +48,7 @@ from nav_msgs.msg import OccupancyGrid
 from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Bool, String
 
-from my_summit_mapping.map_msgs import quaternion_to_yaw
+from summit_nav_common.geometry import quaternion_to_yaw
 from my_summit_navigation import frontiers as fr
 
 SUCCEEDED, ABORTED = 3, 4
@@ -241,7 +241,7 @@ class Explore:
     def save(self):
         if not self.save_base:
             return "not saved (~save_map empty)"
-        from summit_xl_sim.map_io import GridMap, save_map
+        from summit_nav_common.map_io import GridMap, save_map
         m = self.map_msg
         if m is None:
             return "not saved: no map received on 'map'"

@@ -34,7 +34,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Empty, Trigger, TriggerResponse
 
 from my_summit_localization.spots import Spot
-from my_summit_mapping.map_msgs import quaternion_to_yaw
+from summit_nav_common.geometry import quaternion_to_yaw
 from my_summit_navigation import patrol_logic as pl
 from my_summit_navigation.goals import move_base_goal
 from my_summit_navigation.spot_goals import STATE_NAMES, SpotBook

@@ -9,6 +9,7 @@ import threading
 import time
 
 import rospy
+from summit_nav_common.geometry import quaternion_to_yaw as yaw_of  # noqa: F401  (used by the tests)
 from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseActionResult
@@ -18,11 +19,6 @@ from std_msgs.msg import UInt32
 from my_summit_navigation.multi_robot import pose_error
 
 STATE_NAMES = {v: k for k, v in GoalStatus.__dict__.items() if k.isupper() and isinstance(v, int)}
-
-
-def yaw_of(q):
-    """Yaw [rad] of a geometry_msgs/Quaternion."""
-    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
 
 
 class RobotWatch:

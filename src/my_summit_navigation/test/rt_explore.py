@@ -22,7 +22,7 @@ from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Bool, String, UInt32
 
 from my_summit_navigation.frontiers import exploration_coverage
-from summit_xl_sim.map_io import load_map
+from summit_nav_common.map_io import load_map
 
 
 class Explore(unittest.TestCase):

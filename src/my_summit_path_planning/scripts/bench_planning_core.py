@@ -58,7 +58,7 @@ def global_costmap(params, grid):
 
 
 def bench_navfn(params, n_pairs, seed=0):
-    from summit_xl_sim.map_io import load_map
+    from summit_nav_common.map_io import load_map
     grid = load_map(WILLOW)
     g = global_costmap(params, grid)
     cm = g.master

@@ -24,8 +24,8 @@ from nav_msgs.srv import GetPlan, GetPlanRequest
 from std_srvs.srv import Empty
 from rospy.numpy_msg import numpy_msg
 
-from my_summit_mapping.map_msgs import grid_to_msg
-from summit_xl_sim.map_io import load_map
+from summit_nav_common.ros.map_msgs import grid_to_msg
+from summit_nav_common.map_io import load_map
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 import mbtest_util as mt  # noqa: E402

@@ -4,11 +4,7 @@ import threading
 import time
 
 import rospy
-
-
-def yaw_of(q):
-    """Yaw [rad] of a geometry_msgs/Quaternion."""
-    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+from summit_nav_common.geometry import quaternion_to_yaw as yaw_of  # noqa: F401  (used by the tests)
 
 
 class Latest:

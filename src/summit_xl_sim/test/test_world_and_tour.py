@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from summit_xl_sim.description import DescriptionError, fixed_joints, laser_mount
-from summit_xl_sim.map_io import load_map
+from summit_nav_common.map_io import GridMap, load_map
 from summit_xl_sim.sim import Simulation
 from summit_xl_sim.tour import TourParams, tour_command
 from summit_xl_sim.world import World, WorldError
@@ -84,3 +84,28 @@ def test_urdf_laser_mount_and_level_check():
         laser_mount(fixed_joints(tilted), source="tilted")
     with pytest.raises(DescriptionError, match="malformed XML"):
         fixed_joints("<robot>", "broken")
+
+
+def test_unknown_solid_beyond_field():
+    """unknown_solid_beyond (the simulator's map field): unknown cells farther than it from
+    every free cell are solid for the simulator's laser and collisions; nearer ones, and
+    all of them without the field, are open space."""
+    data = np.zeros((8, 40), np.int8)       # 20 m x 4 m at 0.5 m from (1, 2), free
+    data[:, 20:26] = -1                     # an unknown band across the middle, x 11-14 m
+    data[:, 36] = 100                       # a wall at x 19-19.5 m
+    world = lambda beyond: World(GridMap(data=data.copy(), resolution=0.5, origin=(1.0, 2.0, 0.0),
+                                         source={"unknown_solid_beyond": beyond}))
+    open_world, closed, every = world(None), world(1.2), world(0.0)
+    # The band's cell centres lie 0.5, 1.0, 1.5, 1.5, 1.0, 0.5 m from the free ones: with
+    # 1.2 m its middle two columns (x 12-13 m) are solid, the outer two on each side open.
+    ray = np.array([0.0])
+    assert open_world.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(16.0)
+    assert closed.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(9.0)
+    assert every.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(8.0)
+    # Looking back along -x from x 3 m: the map's edge cell (x 1-1.5 m) is a wall.
+    assert open_world.cast(3.0, 4.0, np.array([math.pi]), 30.0)[0] == pytest.approx(1.5)
+    assert open_world.points_hit_walls(np.array([[1.2, 4.0]]))
+    assert not open_world.points_hit_walls(np.array([[12.5, 4.0]]))
+    assert closed.points_hit_walls(np.array([[12.5, 4.0]]))
+    assert not closed.points_hit_walls(np.array([[11.7, 4.0]]))
+    assert every.points_hit_walls(np.array([[11.7, 4.0]]))

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from geometry_msgs.msg import Pose, PoseArray, PoseWithCovarianceStamped, TransformStamped
 
-from my_summit_mapping.map_msgs import quaternion_to_yaw, yaw_to_quaternion_zw
+from summit_nav_common.geometry import quaternion_to_yaw, yaw_to_quaternion_zw
 
 # Indices of the 6x6 row-major covariance (x, y, z, roll, pitch, yaw).
 I_XX, I_XY, I_YX, I_YY, I_AA = 0, 1, 6, 7, 35

@@ -24,7 +24,7 @@ particles are left out, unless more than beam_skip_error_threshold of the beams 
 be).
 
 beam_range_finder_model: each beam's expected range is ray cast from every particle
-(``summit_xl_sim.raycast.cast_rays``, exact to the grid; Walsh & Karaman 2017 with
+(``summit_nav_common.raycast.cast_rays``, exact to the grid; Walsh & Karaman 2017 with
 Amanatides & Woo 1987), and ``pz = z_hit N(z - z*) + z_short (z < z*) lambda e^{-lambda
 z} + z_max [z = range_max] + z_rand [z < range_max] / range_max``, combined as amcl does
 (``1 + sum(pz^3)``). Rays are cast one particle at a time (N calls into the compiled
@@ -43,7 +43,7 @@ import math
 import cv2
 import numpy as np
 
-from summit_xl_sim import raycast
+from summit_nav_common import raycast
 
 OCCUPIED = 100   # OccupancyGrid value amcl treats as an obstacle (occ_state +1)
 FREE = 0         # value amcl counts as free space (occ_state -1)
@@ -119,7 +119,7 @@ class _GridFrame:
 class LikelihoodFieldModel:
     """amcl's likelihood_field (and likelihood_field_prob) laser model, vectorized.
 
-    grid: summit_xl_sim.map_io.GridMap; config: AmclConfig (laser_* parameters).
+    grid: summit_nav_common.map_io.GridMap; config: AmclConfig (laser_* parameters).
     dtype: float type of the (N, B) end-point arithmetic (float32: fast, a few 1e-5
     cells of rounding; float64: the reference's cells except at exact cell borders).
     The lookup table itself is float32 (relative error ~1e-7).

@@ -42,21 +42,13 @@ Units: poses (x [m], y [m], yaw [rad]); particles an (N, 3) float64 array.
 """
 import numpy as np
 
+from summit_nav_common.geometry import angle_diff, wrap_angle
+
 # Below this odometry translation [m] the bearing of the move is meaningless (in-place
 # rotation) and amcl's diff model sets rot1 = 0.
 MIN_TRANS_FOR_BEARING = 0.01
 
 MODELS = ("diff", "omni", "diff-corrected", "omni-corrected")
-
-
-def wrap_angle(a):
-    """Angle(s) [rad] wrapped into [-pi, pi)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def angle_diff(a, b):
-    """Smallest signed difference a - b [rad], in [-pi, pi) (amcl's angle_diff)."""
-    return wrap_angle(np.asarray(a) - np.asarray(b))
 
 
 def odom_delta(odom_pose, last_odom_pose):

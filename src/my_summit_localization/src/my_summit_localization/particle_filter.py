@@ -58,6 +58,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
+from summit_nav_common.geometry import compose, inverse
 
 from . import motion_model
 from .likelihood_field import FREE, make_laser_model, prepare_ranges, scan_limits, select_beams
@@ -74,20 +75,6 @@ MAX_DENSE_BINS = 4_000_000
 # amcl's pf dist_threshold: the filter counts as converged when every particle is within
 # this distance of the mean along x and along y [m].
 CONVERGED_DIST = 0.5
-
-
-# -- pose helpers ---------------------------------------------------------------------
-def compose(a, b):
-    """Pose a (+) b: b expressed in a's frame, returned in a's parent frame."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return np.array([a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1],
-                     float(motion_model.wrap_angle(a[2] + b[2]))])
-
-
-def inverse(a):
-    """Inverse pose of a (x, y, yaw)."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return np.array([-c * a[0] - s * a[1], s * a[0] - c * a[1], float(motion_model.wrap_angle(-a[2]))])
 
 
 # -- KLD-sampling ---------------------------------------------------------------------
@@ -293,7 +280,7 @@ def sample_free_poses(free_xy, resolution, origin_yaw, n, rng, out=None):
 class ParticleFilter:
     """amcl's particle filter on one map.
 
-    config: amcl_config.AmclConfig; grid: summit_xl_sim.map_io.GridMap (the map);
+    config: amcl_config.AmclConfig; grid: summit_nav_common.map_io.GridMap (the map);
     rng: numpy Generator (all randomness); laser_model: optional model with
     ``weights(particles, ranges, bearings, laser_xy, range_max, out)`` (default: the one
     named by laser_model_type). Starts from initial_pose_* / initial_cov_*.

@@ -20,11 +20,13 @@ No rospy here: the node (nodes/spot_recorder) is the adapter.
 """
 import math
 import os
-import tempfile
 from collections import OrderedDict
 from dataclasses import dataclass
 
 import yaml
+
+from summit_nav_common import files
+from summit_nav_common.geometry import yaw_of_quaternion
 
 END_LABEL = "end"          # the label that writes the file instead of storing a spot
 DEFAULT_FRAME = "map"      # frame of the poses when a file does not name one
@@ -55,8 +57,7 @@ class Spot:
     @property
     def yaw(self):
         """Yaw [rad] of the orientation (roll and pitch ignored)."""
-        return math.atan2(2.0 * (self.qw * self.qz + self.qx * self.qy),
-                          1.0 - 2.0 * (self.qy * self.qy + self.qz * self.qz))
+        return yaw_of_quaternion(self.qx, self.qy, self.qz, self.qw)
 
     def as_dict(self):
         """The schema's mapping {position: {x, y, z}, orientation: {x, y, z, w}}."""
@@ -152,34 +153,16 @@ def load_spots(path):
 
 # -- atomic write -----------------------------------------------------------------------
 def write_atomic(path, text):
-    """Write text to path atomically (temp file in the same directory + fsync + rename).
-
-    On any failure the temporary file is removed, an existing file at path is left as it
-    was, and SpotsError says which path and why.
-    """
+    """Write text to path atomically (summit_nav_common.files.write_atomic); on failure an
+    existing file at path is left as it was and SpotsError says which path and why.
+    Returns the absolute path written."""
     path = os.path.abspath(os.path.expanduser(str(path)))
-    directory = os.path.dirname(path)
     if os.path.isdir(path):
         raise SpotsError(f"cannot write {path}: it is a directory")
-    tmp = None
     try:
-        fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp",
-                                   dir=directory)
-        # mkstemp makes the file 0600; give it the mode a plain open() would (0666 & ~umask).
-        umask = os.umask(0)
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-        tmp = None
+        files.write_atomic(path, text)
     except OSError as e:
         raise SpotsError(f"cannot write {path}: {e.strerror or e}") from e
-    finally:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
     return path
 
 

@@ -10,5 +10,5 @@ Modules (no rospy anywhere in this package's importable code):
   metrics        ATE RMSE and map precision/recall
   evaluation     a SLAM run judged against simulator ground truth (test + benchmark)
   laser_mount    laser mounting checks and beam directions in the base frame
-  map_msgs       nav_msgs/OccupancyGrid <-> summit_xl_sim.map_io.GridMap (message classes only)
+  map_msgs       nav_msgs/OccupancyGrid <-> summit_nav_common.map_io.GridMap (message classes only)
 """

@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from summit_nav_common.geometry import wrap_angle
 
 # Default drift noise (std of a step's error per unit of that step's motion).
 DRIFT_TRANS_PER_TRANS = 0.05   # translation error per metre driven [m/m]
@@ -126,6 +127,3 @@ def make_drifted_odometry(poses: np.ndarray, rng: np.random.Generator,
     return chain_increments(poses[0], noisy)
 
 
-def wrap_angle(a):
-    """Wrap angle(s) [rad] to [-pi, pi)."""
-    return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi

@@ -9,7 +9,7 @@ Used by the mapping rostest and by bench_slam_sim.py, so both judge a run the sa
 3. The map in the world: every occupied SLAM cell centre, moved by that transform,
    marks the world cell it falls in (the same 0.05 m grid as the world's walls).
 4. Seen walls: from the ground-truth laser pose of every processed scan (the scans that
-   made the map), beams are cast in the true world (summit_xl_sim.raycast via
+   made the map), beams are cast in the true world (summit_nav_common.raycast via
    World.cast) up to maxUrange; the wall cell each returning beam ends in is "seen".
 5. precision = metrics.map_precision(map_occupied, walls); recall =
    metrics.map_recall(map_occupied, seen_walls): one-cell tolerance both ways.

@@ -11,18 +11,6 @@ import numpy as np
 LEVEL_TOLERANCE = 0.001  # gmapping's test: | |up_z| - 1 | must stay below this [-] (~2.6 deg tilt)
 
 
-def quaternion_matrix(x, y, z, w):
-    """3x3 rotation matrix of a unit quaternion (x, y, z, w); normalized first."""
-    q = np.array([x, y, z, w], float)
-    n = np.linalg.norm(q)
-    if not np.isfinite(n) or n == 0.0:
-        raise ValueError(f"quaternion {tuple(q)} is not a rotation")
-    x, y, z, w = q / n
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
 def is_level(rotation):
     """True when the laser's scan plane is parallel to the base's x-y plane (upright or
     upside down), with gmapping's tolerance. rotation: 3x3 laser->base matrix."""

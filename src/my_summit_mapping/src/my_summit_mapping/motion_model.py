@@ -14,6 +14,8 @@ the motion, and the noisy increment is composed onto every particle (absoluteSum
 """
 import numpy as np
 
+from summit_nav_common.geometry import compose
+
 SXY_FACTOR = 0.3  # cross-coupling of lateral noise, gmapping's "sxy = 0.3*srr" [-]
 
 
@@ -32,20 +34,6 @@ def noise_std(increment: np.ndarray, srr: float, srt: float, str_: float, stt: f
     return np.array([srr * dx + str_ * dth + sxy * dy,
                      srr * dy + str_ * dth + sxy * dx,
                      stt * dth + srt * np.hypot(dx, dy)])
-
-
-def compose(poses: np.ndarray, increments: np.ndarray, out: np.ndarray = None) -> np.ndarray:
-    """Compose (N, 3) poses with (N, 3) local increments (absoluteSum); returns (N, 3)."""
-    if out is None:
-        out = np.empty_like(poses)
-    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-    x = poses[:, 0] + c * increments[:, 0] - s * increments[:, 1]
-    y = poses[:, 1] + s * increments[:, 0] + c * increments[:, 1]
-    th = poses[:, 2] + increments[:, 2]
-    out[:, 0] = x
-    out[:, 1] = y
-    out[:, 2] = np.arctan2(np.sin(th), np.cos(th))
-    return out
 
 
 def sample_motion(poses: np.ndarray, old_odom: np.ndarray, new_odom: np.ndarray,

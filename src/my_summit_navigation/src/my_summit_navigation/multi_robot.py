@@ -10,6 +10,7 @@ import math
 import re
 
 from my_summit_localization.spots import Spot
+from summit_nav_common.geometry import wrap_angle
 
 # A ROS graph name's base: a letter, then letters, digits, underscores (REP 135 / names).
 _ROBOT_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -50,11 +51,6 @@ def goal_spot(goal_x, goal_y, goal_theta_deg):
             raise GoalError(f"parameter {name} = {v!r} is not finite")
         values.append(float(v))
     return Spot.from_xy_yaw(values[0], values[1], math.radians(values[2]))
-
-
-def wrap_angle(a):
-    """a [rad] in [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def pose_error(pose, goal):

@@ -91,6 +91,7 @@ import cv2
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+from summit_nav_common.geometry import wrap_angle
 
 EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
 MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
@@ -198,11 +199,6 @@ class DWAResult:
     n_samples: int = 0
     cost: float = 0.0
     mode: str = "dwa"
-
-
-def wrap_angle(a):
-    """Angle wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 # -- 1. dynamic window ----------------------------------------------------------------

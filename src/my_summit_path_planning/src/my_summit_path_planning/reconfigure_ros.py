@@ -7,7 +7,7 @@
   (cfg/InflationPlugin.cfg, costmap_2d's): the layer's parameters change and the whole
   costmap is re-inflated on its next update.
 
-The servers are summit_xl_sim.reconfigure.StrictServer: a value outside the .cfg's range
+The servers are summit_nav_common.ros.reconfigure.StrictServer: a value outside the .cfg's range
 is refused (logged with the valid range), not clamped. A combination the planner cannot
 run with (e.g. min_vel_x above max_vel_x) is refused the same way. The first callback
 (at start) only reports the parameters loaded from the YAML files.
@@ -18,7 +18,7 @@ import rospy
 
 from my_summit_path_planning.layers import InflationLayer
 from my_summit_path_planning.params import ParamError, dwa_config
-from summit_xl_sim.reconfigure import StrictServer
+from summit_nav_common.ros.reconfigure import StrictServer
 
 
 class _Callback:

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from summit_nav_common.geometry import wrap_angle
+
 
 @dataclass
 class RobotParams:
@@ -58,17 +60,6 @@ def footprint_samples(params, spacing):
     return np.column_stack([gx.ravel(), gy.ravel()])
 
 
-def transform_points(pts, x, y, yaw):
-    """Robot-frame points (N, 2) -> world frame, robot at (x, y, yaw)."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    return pts @ np.array([[c, s], [-s, c]]) + np.array([x, y])
-
-
-def wrap_angle(a):
-    """Angle wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def _approach(v, target, max_delta):
     if target > v:
         return min(target, v + max_delta)
@@ -105,13 +96,6 @@ def integrate_pose(pose, vel, dt):
     return (x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, wrap_angle(yaw + wz * dt))
 
 
-def body_increment(p0, p1):
-    """Motion from pose p0 to p1 expressed in p0's frame: (dx, dy, dyaw)."""
-    dx, dy = p1[0] - p0[0], p1[1] - p0[1]
-    c, s = math.cos(p0[2]), math.sin(p0[2])
-    return (c * dx + s * dy, -s * dx + c * dy, wrap_angle(p1[2] - p0[2]))
-
-
 def noisy_increment(params, inc, rng):
     """Odometry's view of a true body increment: drift noise and yaw scale error."""
     dx, dy, dth = inc
@@ -125,10 +109,3 @@ def noisy_increment(params, inc, rng):
     scale = 1.0 + e[0] * sd_trans / trans if trans > 0.0 else 1.0
     return (dx * scale, dy * scale,
             dth * (1.0 + params.odom_yaw_scale_error) + e[2] * sd_rot)
-
-
-def compose(pose, inc):
-    """Pose after applying a body-frame increment (dx, dy, dyaw)."""
-    x, y, yaw = pose
-    c, s = math.cos(yaw), math.sin(yaw)
-    return (x + c * inc[0] - s * inc[1], y + s * inc[0] + c * inc[1], wrap_angle(yaw + inc[2]))

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from summit_nav_common import geometry
+
 from . import robot as rb
 from .world import World, WorldError, rects_overlap
 
@@ -93,7 +95,7 @@ class Simulation:
             raise WorldError(f"robot '{name}': drive must be one of {DRIVES}, got {drive!r}")
         params = params or rb.RobotParams()
         state = RobotState(name=name, drive=drive, params=params, laser=laser or LaserParams(),
-                           pose=(float(x), float(y), rb.wrap_angle(float(yaw))),
+                           pose=(float(x), float(y), geometry.wrap_angle(float(yaw))),
                            rng=np.random.default_rng([self._seed, len(self.robots)]))
         self._check_free(state, state.pose, spawning=True)
         self.robots[name] = state
@@ -110,7 +112,7 @@ class Simulation:
         x, y, yaw = pose
         # Cheap gate: far from every wall cell no footprint point can be in one.
         if self.world.clearance(x, y) <= state.params.circumradius + self.world.resolution:
-            pts = rb.transform_points(self._footprint_points(state.params), x, y, yaw)
+            pts = geometry.transform_points(self._footprint_points(state.params), (x, y, yaw))
             if self.world.points_hit_walls(pts):
                 return "wall"
         rect = (x, y, yaw, state.params.length / 2.0, state.params.width / 2.0)
@@ -144,7 +146,7 @@ class Simulation:
     def set_pose(self, name, x, y, yaw):
         """Teleport a robot (ground truth only; odometry does not see it, as a kidnapping)."""
         state = self.robot(name)
-        pose = (float(x), float(y), rb.wrap_angle(float(yaw)))
+        pose = (float(x), float(y), geometry.wrap_angle(float(yaw)))
         self._check_free(state, pose)
         state.pose = pose
         state.vel = (0.0, 0.0, 0.0)
@@ -197,11 +199,11 @@ class Simulation:
                 state.vel = (0.0, 0.0, 0.0)
                 state.odom_vel = state.vel
                 continue
-            inc = rb.body_increment(state.pose, new_pose)
+            inc = tuple(geometry.relative(state.pose, new_pose))
             state.free_travel += math.hypot(inc[0], inc[1]) + abs(inc[2]) * state.params.circumradius
             if state.free_travel > CONTACT_RESET:
                 state.in_contact = False
-            state.odom_pose = rb.compose(state.odom_pose, rb.noisy_increment(state.params, inc, state.rng))
+            state.odom_pose = tuple(geometry.compose(state.odom_pose, rb.noisy_increment(state.params, inc, state.rng)))
             state.pose = new_pose
             state.vel = vel
             state.odom_vel = vel
@@ -210,7 +212,7 @@ class Simulation:
     def laser_pose(self, state):
         """World pose (x, y, yaw) of the robot's laser."""
         mx, my, myaw = state.laser.mount
-        return rb.compose(state.pose, (mx, my, myaw))
+        return tuple(geometry.compose(state.pose, (mx, my, myaw)))
 
     def scan(self, name, noise=True):
         """One laser scan of robot ``name``: ranges (n_beams,) float32 [m].

@@ -8,7 +8,7 @@ the heading error, steering proportionally. Pure function: pose in, command out.
 import math
 from dataclasses import dataclass
 
-from .robot import wrap_angle
+from summit_nav_common.geometry import wrap_angle
 
 
 @dataclass

@@ -22,8 +22,8 @@ import math
 
 import numpy as np
 
-from . import raycast
-from .map_io import FREE, OCCUPIED, UNKNOWN, load_map
+from summit_nav_common import raycast
+from summit_nav_common.map_io import FREE, OCCUPIED, UNKNOWN, load_map
 
 RAW_WALL_VALUE = 65  # raw mode: cell values are 0..255 occupancy in percent-like units
 

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 import yaml
 
-from .map_io import PGM_FREE, PGM_OCCUPIED, PGM_UNKNOWN, GridMap, MapError, save_map, image_to_grid
+from summit_nav_common.map_io import PGM_FREE, PGM_OCCUPIED, PGM_UNKNOWN, GridMap, MapError, save_map, image_to_grid
 
 SHIFT = 4                 # OpenCV fixed-point bits for sub-pixel drawing
 SCALE = 1 << SHIFT

@@ -5,26 +5,47 @@ import os
 import numpy as np
 import pytest
 
-from summit_xl_sim import raycast
-from summit_xl_sim.world import World
+from summit_nav_common import raycast
+from summit_nav_common.map_io import OCCUPIED, GridMap, load_map
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-BUILTIN = os.path.join(HERE, "..", "worlds", "course_building.yaml")
-WILLOW = os.path.join(HERE, "..", "..", "my_summit_navigation", "maps", "willow-full.yaml")
+WILLOW = os.path.join(HERE, "..", "..", "..", "data", "maps", "willow-full.yaml")  # the workspace's data/
+SYNTHETIC = "synthetic"
 ANGLES = np.linspace(-2.356194490192345, 2.356194490192345, 1081)
 
 
-@pytest.mark.parametrize("path", [BUILTIN, WILLOW])
+def synthetic_map(seed=3, size=(300, 400)):
+    """A 0.05 m map of random boxes and thin walls (the kinds of obstacle a building has)."""
+    rng = np.random.default_rng(seed)
+    data = np.zeros(size, np.int8)
+    for _ in range(60):
+        y, x = rng.integers(0, size[0] - 20), rng.integers(0, size[1] - 20)
+        h, w = (rng.integers(1, 4), rng.integers(5, 60)) if rng.random() < 0.5 else rng.integers(1, 15, 2)
+        data[y:y + h, x:x + w] = OCCUPIED
+    return GridMap(data=data, resolution=0.05)
+
+
+def walls_of(path):
+    """(grid, occupied cells with the map's border closed, distance field) of a map file,
+    as the simulator sees a world."""
+    grid = synthetic_map() if path == SYNTHETIC else load_map(path)
+    walls = grid.data == OCCUPIED
+    walls[[0, -1], :] = True
+    walls[:, [0, -1]] = True
+    return grid, walls, raycast.distance_field(walls)
+
+
+@pytest.mark.parametrize("path", [SYNTHETIC, WILLOW])
 def test_fast_matches_oracle(path):
-    world = World.from_yaml(path)
+    grid, walls, dist = walls_of(path)
     rng = np.random.default_rng(7)
-    ys, xs = np.nonzero((world.dist > 1.0) & (world.grid.data == 0))  # known free space
-    tmax = 30.0 / world.resolution
+    ys, xs = np.nonzero((dist > 1.0) & (grid.data == 0))  # known free space
+    tmax = 30.0 / grid.resolution
     for k in rng.choice(len(xs), 12, replace=False):
         ox, oy = xs[k] + rng.random(), ys[k] + rng.random()
         ang = ANGLES + rng.uniform(-math.pi, math.pi)
-        fast = raycast.cast_rays(world.walls, world.dist, ox, oy, ang, tmax)
-        slow = raycast.cast_rays_reference(world.walls, ox, oy, ang, tmax)
+        fast = raycast.cast_rays(walls, dist, ox, oy, ang, tmax)
+        slow = raycast.cast_rays_reference(walls, ox, oy, ang, tmax)
         np.testing.assert_allclose(fast, slow, atol=1e-9)
         assert (fast < tmax).mean() > 0.3  # the test sees walls, not only open space
 
@@ -86,11 +107,10 @@ def test_ray_along_a_cell_boundary_ends(tmp_path):
     import sys
     code = (
         "import math, numpy as np\n"
-        "from summit_xl_sim import raycast\n"
-        "from summit_xl_sim.world import World\n"
-        f"w = World.from_yaml({WILLOW!r})\n"
-        "occ = w.walls\n"
-        "dist = w.dist\n"
+        "from summit_nav_common import raycast\n"
+        f"import sys; sys.path.insert(0, {HERE!r})\n"
+        "from test_raycast import walls_of\n"
+        f"_, occ, dist = walls_of({WILLOW!r})\n"
         "a = np.array([-math.pi, math.pi, -math.pi / 2, math.pi / 2, 0.0])\n"
         "fast = raycast.cast_rays(occ, dist, 182.5, 185.0, a, 300.0)\n"
         "ref = raycast.cast_rays_reference(occ, 182.5, 185.0, a, 300.0)\n"

@@ -1,26 +1,16 @@
-"""Conversions between nav_msgs/OccupancyGrid messages and summit_xl_sim.map_io.GridMap.
+"""Conversions between nav_msgs/OccupancyGrid messages and summit_nav_common.map_io.GridMap.
 
 The map nodes (map_server, map_saver, map_autosaver, slam_gmapping) share these so the
 message layout is written once: data row-major from the lower-left cell (row 0 = lowest
 y), origin = pose of cell (0, 0)'s lower-left corner with a yaw about z. No rospy here:
 only the message classes (genpy), so the functions are unit-tested without a master.
 """
-import math
-
 import numpy as np
 from geometry_msgs.msg import Pose
 from nav_msgs.msg import MapMetaData, OccupancyGrid
-from summit_xl_sim.map_io import GridMap
 
-
-def yaw_to_quaternion_zw(yaw):
-    """(z, w) of the unit quaternion of a rotation by yaw [rad] about z."""
-    return math.sin(yaw / 2.0), math.cos(yaw / 2.0)
-
-
-def quaternion_to_yaw(q):
-    """Yaw [rad] of a geometry_msgs/Quaternion (roll and pitch ignored)."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+from summit_nav_common.geometry import quaternion_to_yaw, yaw_to_quaternion_zw
+from summit_nav_common.map_io import GridMap
 
 
 def make_metadata(width, height, resolution, origin, load_time=None):

@@ -7,9 +7,9 @@ import pytest
 from nav_msgs.msg import OccupancyGrid
 from numpy.testing import assert_allclose, assert_array_equal
 from rospy.numpy_msg import numpy_msg
-from summit_xl_sim.map_io import GridMap, load_map, save_map
+from summit_nav_common.map_io import GridMap, load_map, save_map
 
-from my_summit_mapping import map_msgs
+from summit_nav_common.ros import map_msgs
 
 
 def _grid():

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from summit_xl_sim.map_io import GridMap, MapError, image_to_grid, load_map, save_map
+from summit_nav_common.map_io import GridMap, MapError, image_to_grid, load_map, save_map
 
 # The workspace's data/ folder (data/README.md names each source).
 REF = os.path.join(os.path.dirname(__file__), "..", "..", "..", "data", "map_server_tests")
@@ -80,36 +80,6 @@ def test_bad_yaml_names_field(tmp_path, text, needle):
     assert str(p) in str(e.value)
 
 
-def test_unknown_solid_beyond_field(tmp_path):
-    """unknown_solid_beyond (the simulator's field): unknown cells farther than it from
-    every free cell are solid for the simulator's laser and collisions; nearer ones, and
-    all of them without the field, are open space."""
-    from summit_xl_sim.world import World
-    img = np.full((8, 40), 254, np.uint8)   # 20 m x 4 m at 0.5 m from (1, 2), free
-    img[:, 20:26] = 205                     # an unknown band across the middle, x 11-14 m
-    img[:, 36] = 0                          # a wall at x 19-19.5 m
-    open_world = World.from_yaml(write_map(tmp_path, img))
-    closed = World.from_yaml(write_map(tmp_path, img, name="c", unknown_solid_beyond=1.2))
-    every = World.from_yaml(write_map(tmp_path, img, name="z", unknown_solid_beyond=0))
-    # The band's cell centres lie 0.5, 1.0, 1.5, 1.5, 1.0, 0.5 m from the free ones: with
-    # 1.2 m its middle two columns (x 12-13 m) are solid, the outer two on each side open.
-    ray = np.array([0.0])
-    assert open_world.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(16.0)
-    assert closed.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(9.0)
-    assert every.cast(3.0, 4.0, ray, 30.0)[0] == pytest.approx(8.0)
-    # Looking back along -x from x 3 m: the map's edge cell (x 1-1.5 m) is a wall.
-    assert open_world.cast(3.0, 4.0, np.array([math.pi]), 30.0)[0] == pytest.approx(1.5)
-    assert open_world.points_hit_walls(np.array([[1.2, 4.0]]))
-    assert not open_world.points_hit_walls(np.array([[12.5, 4.0]]))
-    assert closed.points_hit_walls(np.array([[12.5, 4.0]]))
-    assert not closed.points_hit_walls(np.array([[11.7, 4.0]]))
-    assert every.points_hit_walls(np.array([[11.7, 4.0]]))
-    assert load_map(write_map(tmp_path, img, name="d")).source["unknown_solid_beyond"] is None
-    for bad in ("maybe", -1, "true"):
-        with pytest.raises(MapError, match="'unknown_solid_beyond' must be a distance >= 0"):
-            load_map(write_map(tmp_path, img, name="e", unknown_solid_beyond=bad))
-
-
 def test_negate_scale_raw(tmp_path):
     # One row of grey levels, top row of the image = highest y.
     img = np.array([[0, 50, 100, 150, 200, 254]], np.uint8)
@@ -175,3 +145,15 @@ def test_failed_save_keeps_previous_map(tmp_path):
         os.chmod(tmp_path, 0o700)
     assert ((tmp_path / "map.pgm").read_bytes(), (tmp_path / "map.yaml").read_bytes()) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["map.pgm", "map.yaml"]
+
+
+def test_unknown_solid_beyond_field_is_read(tmp_path):
+    """unknown_solid_beyond (the simulator's own map field, a distance [m]) is read into
+    the map's source facts; what it does is the simulator's (its test_world_and_tour)."""
+    img = np.full((8, 40), 254, np.uint8)
+    assert load_map(write_map(tmp_path, img, name="d")).source["unknown_solid_beyond"] is None
+    assert load_map(write_map(tmp_path, img, name="c", unknown_solid_beyond=1.2)).source[
+        "unknown_solid_beyond"] == pytest.approx(1.2)
+    for bad in ("maybe", -1, "true"):
+        with pytest.raises(MapError, match="'unknown_solid_beyond' must be a distance >= 0"):
+            load_map(write_map(tmp_path, img, name="e", unknown_solid_beyond=bad))

@@ -6,9 +6,8 @@ nav_msgs/OccupancyGrid, and writes a map as map_saver does (trinary PGM + YAML).
 Reference: ROS 1 map_server, ``image_loader.cpp`` (loadMapFromFile) and
 ``map_saver.cpp``; YAML keys documented at wiki.ros.org/map_server.
 
-This module is the one map I/O helper of the workspace (SPEC.md: shared helpers live in
-the lowest package that needs it); the simulator loads its worlds with it and the
-mapping package's map_server and map_saver use it too.
+The one map I/O of the workspace: the simulator loads its worlds with it, and the
+mapping package's map_server and map_saver read and write with it.
 
 Conventions: ``data`` is a (height, width) int8 array in OccupancyGrid order, row 0 the
 *lowest* row of the image (map_server flips the image so cell (0, 0) is the lower-left
@@ -16,12 +15,13 @@ corner). Values: 100 occupied, 0 free, -1 unknown, 1..99 in ``scale`` mode.
 """
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 import yaml
+
+from summit_nav_common.files import write_atomic
 
 OCCUPIED = 100  # OccupancyGrid value of a lethal cell
 FREE = 0
@@ -236,26 +236,6 @@ def grid_to_pgm(data, occupied_threshold=SAVER_OCCUPIED_THRESHOLD, free_threshol
     return img[::-1].copy()
 
 
-def _atomic_write(path, payload):
-    """Write bytes to path via a temporary file in the same folder and a rename."""
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
-    try:
-        # mkstemp makes the file 0600; give it the mode a plain open() would (0666 & ~umask).
-        umask = os.umask(0)
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)
-        with os.fdopen(fd, "wb") as f:
-            f.write(payload)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def save_map(grid, base_path, occupied_threshold=SAVER_OCCUPIED_THRESHOLD,
              free_threshold=SAVER_FREE_THRESHOLD):
     """Write ``<base_path>.pgm`` and ``<base_path>.yaml`` as ROS map_saver does.
@@ -279,8 +259,8 @@ def save_map(grid, base_path, occupied_threshold=SAVER_OCCUPIED_THRESHOLD,
             f"origin: [{ox:f}, {oy:f}, {oyaw:f}]\nnegate: 0\n"
             f"occupied_thresh: {SAVER_OCCUPIED_THRESH}\nfree_thresh: {SAVER_FREE_THRESH}\n\n")
     try:
-        _atomic_write(pgm_path, header + img.tobytes())
-        _atomic_write(yaml_path, text.encode())
+        write_atomic(pgm_path, header + img.tobytes())
+        write_atomic(yaml_path, text)
     except OSError as e:
         raise MapError(f"{base_path}: cannot write map: {e}") from None
     return pgm_path, yaml_path

@@ -1,4 +1,4 @@
-"""Unit tests of the wall-time transform wait (my_summit_mapping.tf_wait); no ROS master:
+"""Unit tests of the wall-time transform wait (summit_nav_common.ros.tf_wait); no ROS master:
 a plain tf2_ros.Buffer filled by hand."""
 import threading
 import time
@@ -8,7 +8,7 @@ import rospy
 import tf2_ros
 from geometry_msgs.msg import TransformStamped
 
-from my_summit_mapping import tf_wait
+from summit_nav_common.ros import tf_wait
 
 
 def odom_tf(t, x):

@@ -1,0 +1,5 @@
+from setuptools import setup
+from catkin_pkg.python_setup import generate_distutils_setup
+
+setup(**generate_distutils_setup(packages=["summit_nav_common", "summit_nav_common.ros"],
+                                 package_dir={"": "src"}))

@@ -1,0 +1,1 @@
+"""ROS plumbing shared by the nodes (see the package docstring)."""
