@@ -439,7 +439,9 @@ def render_page(store):
            f"Generated from `docs/bench.json` by `{RENDER_COMMAND}` (which `make bench` runs at its end); "
            "do not edit by hand. Each section shows the commit, date, machine and load average of its own "
            f"last run: a partial run (`make bench BENCH_ARGS=\"--only SECTION\"`) replaces only its sections. "
-           "Wall-clock figures depend on the load of the machine, given per section.", ""]
+           "Wall-clock figures depend on the load of the machine, given per section: the kernel's "
+           "1-minute load average, polled every few seconds during the section, counts the benchmark's own "
+           "processes too, and for a section shorter than a minute it mostly reflects the minute before.", ""]
     sections = store.get("sections", {})
     for name in list(SECTIONS) + sorted(set(sections) - set(SECTIONS)):
         out += [f"## {name}", "", f"What it measures: {SECTIONS.get(name, name)}.", ""]
