@@ -2,6 +2,7 @@
 rendered page and the README's table, from small hand-made stores."""
 import json
 import os
+import subprocess
 import sys
 
 import pytest
@@ -41,7 +42,8 @@ def test_merge_replaces_sections_run_and_keeps_the_others_with_their_commit():
     store = bench_report.merge(bench_report.empty_store(),
                                [make_record("laser", LASER, "aaaaaaa"), make_record("sim_rtf", SIM_RTF, "bbbbbbb")])
     faster = [dict(LASER[1], scans_per_s=1500.0)]
-    merged = bench_report.merge(store, [make_record("laser", faster, "ccccccc-dirty", date="2026-02-01T00:00:00+00:00")])
+    later = make_record("laser", faster, "ccccccc-dirty", date="2026-02-01T00:00:00+00:00")
+    merged = bench_report.merge(store, [later])
 
     assert set(merged["sections"]) == {"laser", "sim_rtf"}
     assert merged["sections"]["sim_rtf"] == store["sections"]["sim_rtf"]
@@ -173,3 +175,25 @@ def test_rows_of_every_section(section):
     page = bench_report.render_page(bench_report.merge(bench_report.empty_store(),
                                                        [make_record(section, SECTION_RESULTS[section], "ddddddd")]))
     assert page.count("| **no** |") == EXPECTED_MET[section].count(False)
+
+
+def test_git_commit_is_dirty_only_for_changes_a_run_does_not_write_itself(tmp_path):
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, stdout=subprocess.DEVNULL)
+
+    git("init", "-q")
+    (tmp_path / "docs").mkdir()
+    for name in ("code.py", "docs/bench.json", "README.md"):
+        (tmp_path / name).write_text("0\n")
+    git("add", "-A")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "c")
+    head = subprocess.run(["git", "-C", str(tmp_path), "rev-parse", "--short", "HEAD"], check=True,
+                          stdout=subprocess.PIPE, text=True).stdout.strip()
+
+    (tmp_path / "docs" / "bench.json").write_text("1\n")  # a previous partial run
+    (tmp_path / "README.md").write_text("1\n")
+    (tmp_path / "untracked.txt").write_text("1\n")
+    assert bench_report.git_commit(str(tmp_path)) == head
+    (tmp_path / "code.py").write_text("1\n")
+    assert bench_report.git_commit(str(tmp_path)) == head + "-dirty"
+    assert bench_report.git_commit(str(tmp_path / "docs" / "no-such-dir")) is None

@@ -427,7 +427,8 @@ def table(rows):
 
 def context_line(rec):
     m, load = rec["machine"], rec["load_average"]
-    return (f"Commit `{rec['commit']}`, {rec['date']}, {m['cores']} cores ({m.get('cpu_model') or 'CPU model unknown'}), "
+    cpu = m.get("cpu_model") or "CPU model unknown"
+    return (f"Commit `{rec['commit']}`, {rec['date']}, {m['cores']} cores ({cpu}), "
             f"load average during the run {load['mean_1min']:.2f} mean / {load['max_1min']:.2f} max "
             f"(1 min; {load['start'][0]:.2f} at start, {load['end'][0]:.2f} at end), "
             f"{rec['wall_s']:.0f} s wall; command `{rec['command']}`.")
