@@ -14,7 +14,7 @@ SETUP_STAMP := build/.setup-done
 BUILD_STAMP := devel/setup.bash
 PY_SOURCES := $(shell find src -name '*.py' -o -name 'CMakeLists.txt' -o -name 'package.xml' -o -name '*.srv' -o -name '*.msg' 2>/dev/null)
 
-.PHONY: all setup build test unit integration demo bench frames clean world e2e-seeds
+.PHONY: all setup build test unit integration demo bench bench-page frames clean world e2e-seeds
 all: build
 
 # Installs the system packages listed once in docker/packages-debian.txt (apt; sudo when
@@ -44,8 +44,14 @@ integration: build
 demo: build
 	@$(SOURCE_WS) $(PYTHON) tools/demo.py $(if $(GUI),--gui,)
 
+# Runs the benchmark sections (BENCH_ARGS="--only laser --runs 3" for some), merges them
+# into docs/bench.json and renders docs/benchmarks.md and the README's table from it.
 bench: build
 	@$(SOURCE_WS) $(PYTHON) tools/bench.py $(BENCH_ARGS)
+
+# Re-renders docs/benchmarks.md and the README's table from docs/bench.json; runs nothing.
+bench-page:
+	@$(PYTHON) tools/bench.py --render
 
 # The end-to-end rostest (tests/course_project.test) once per simulator seed: SEEDS="1 2 3".
 e2e-seeds: build

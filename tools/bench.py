@@ -1,5 +1,11 @@
 #!/usr/bin/python3
-"""`make bench`: performance benchmarks, printed as a table and written as JSON.
+"""`make bench`: performance benchmarks, printed as tables, written as JSON and as a page.
+
+Each section run is recorded with its rows (figure, measured, target, met), the commit,
+date, machine and the load average during it (tools/bench_report.py); the record replaces
+that section in the committed store docs/bench.json, from which docs/benchmarks.md and
+the README's table are rendered (`--render`, `make bench-page`: no run). This run's raw
+results also go to output/bench.json.
 
 Benchmarks measure; they do not pass or fail (the tests stay free of wall-clock
 thresholds). Each figure is the median of several runs; peak resident memory is given
@@ -30,11 +36,14 @@ beside each time. Sections:
 
     make bench                      all sections
     make bench BENCH_ARGS="--only laser --runs 3"
+    make bench BENCH_ARGS="--only slam_carmen --carmen-logs intel"
+    make bench-page                 re-render the page from docs/bench.json
 """
 import argparse
 import json
 import os
 import resource
+import shlex
 import statistics
 import subprocess
 import sys
@@ -44,6 +53,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench_report  # noqa: E402
 from roslaunch_session import RoslaunchSession, wait_for  # noqa: E402
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -158,12 +168,14 @@ def bench_sim_rtf_runs(runs):
     return med
 
 
-def bench_slam_carmen():
+def bench_slam_carmen(logs=None):
+    """bench_slam_carmen.py on `logs` (names, default all of its logs)."""
     script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_carmen.py")
     if not os.path.exists(script):
         return None
     path = os.path.join(OUT, "bench_slam_carmen.json")
-    subprocess.run([sys.executable, script, "--json", path, "--out", OUT], check=True)
+    subprocess.run([sys.executable, script, "--json", path, "--out", OUT] + (["--logs"] + logs if logs else []),
+                   check=True)
     with open(path) as f:
         return json.load(f)
 
@@ -256,141 +268,61 @@ def bench_e2e():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", action="append", help="laser, sim_rtf, slam_carmen, slam_sim, amcl, planning, explore, "
-                    "patrol, multi_robot, e2e (repeatable)")
+    ap.add_argument("--only", action="append", help=", ".join(bench_report.SECTIONS) + " (repeatable)")
     ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
+    ap.add_argument("--carmen-logs", nargs="+", metavar="LOG",
+                    help="slam_carmen: only these CARMEN logs (intel, aces; default both)")
+    ap.add_argument("--render", action="store_true",
+                    help="only re-render docs/benchmarks.md and the README's table from docs/bench.json")
     args = ap.parse_args()
+    if args.render:
+        bench_report.render_files(bench_report.load_store())
+        print(f"rendered {os.path.relpath(bench_report.PAGE, WS)} and the README's table from "
+              f"{os.path.relpath(bench_report.STORE, WS)}")
+        return 0
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
-    only = set(args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl", "planning", "explore",
-                             "patrol", "multi_robot"])
+    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl", "planning", "explore", "patrol",
+                         "multi_robot"]
+    unknown = sorted(set(only) - set(bench_report.SECTIONS))
+    if unknown:
+        ap.error(f"unknown section(s) {unknown}; known: {', '.join(bench_report.SECTIONS)}")
+    measures = {
+        "laser": lambda: bench_laser(args.runs),
+        "sim_rtf": lambda: bench_sim_rtf_runs(max(1, min(args.runs, 3))),
+        "slam_carmen": lambda: bench_slam_carmen(args.carmen_logs),
+        "slam_sim": lambda: bench_slam_sim(args.runs),
+        "amcl": bench_amcl,
+        "planning": lambda: bench_planning(args.runs),
+        "explore": bench_explore,
+        "patrol": bench_patrol,
+        "multi_robot": lambda: bench_multi_robot(min(args.runs, 3)),
+        "e2e": bench_e2e,
+    }
     os.makedirs(OUT, exist_ok=True)
-    report = {"machine": {"cores": os.cpu_count(), "python": sys.version.split()[0]}}
-    lines = ["| benchmark | figure | target | peak RSS [MB] |", "| --- | --- | --- | --- |"]
-    if "laser" in only:
-        report["laser"] = bench_laser(args.runs)
-        for r in report["laser"]:
-            if "skipped" in r:
-                continue
-            target = {"built-in course building": ">= 2000", "willow-full (0.1 m)": ">= 1000"}.get(r["world"], "-")
-            lines.append(f"| laser scans/s, 1081 beams, {r['world']} ({r['cells']}) | "
-                         f"{r['scans_per_s']:.0f} | {target} | {r['peak_rss_mb']:.0f} |")
-    if "sim_rtf" in only:
-        med = bench_sim_rtf_runs(max(1, min(args.runs, 3)))
-        report["sim_rtf"] = med
-        lines.append(f"| simulator real-time factor, 1 robot, all topics subscribed | {med['rtf']:.1f}x "
-                     f"(runs {med['runs_rtf']}; {med['sim_cpu_s_per_sim_s'] * 1000:.0f} ms CPU per sim s; "
-                     f"scan {med['scan_hz_sim']:.1f} Hz, odom {med['odom_hz_sim']:.1f} Hz, clock "
-                     f"{med['clock_hz_sim']:.0f} Hz sim) | >= 20x | {med['sim_rss_mb']:.0f} |")
-    if "slam_carmen" in only:
-        res = bench_slam_carmen()
-        if res is not None:
-            report["slam_carmen"] = res
-            for r in res["results"]:
-                lines.append(f"| SLAM core offline, CARMEN {r['log']}, {r['particles']} particles: ATE RMSE "
-                             f"SLAM / drifted odometry [m] | {r['ate_slam_m']:.3f} / {r['ate_odom_m']:.3f} "
-                             f"({r['cpu_ms_per_processed_scan']:.0f} ms CPU per scan, {r['processed_scans']} scans) | "
-                             f"{'<= 0.10' if r['log'] == 'intel' else '-'} | {r['peak_rss_mb']:.0f} |")
-    if "slam_sim" in only:
-        res = bench_slam_sim(args.runs)
-        report["slam_sim"] = res
-        m = res["median"]
-        worst = {k: (max if k in ("ate_m", "cpu_per_sim_s") else min)(r[k] for r in res["runs"])
-                 for k in ("ate_m", "precision", "recall", "cpu_per_sim_s")}
-        lines.append(f"| slam_gmapping on the built-in world tour, 30 particles ({len(res['runs'])} runs): "
-                     f"ATE RMSE [m] | {m['ate_m']:.3f} (worst {worst['ate_m']:.3f}) | <= 0.05 | {m['peak_rss_mb']:.0f} |")
-        lines.append(f"| ... map precision / recall | {m['precision']:.3f} / {m['recall']:.3f} "
-                     f"(worst {worst['precision']:.3f} / {worst['recall']:.3f}) | >= 0.95 / >= 0.90 | - |")
-        lines.append(f"| ... SLAM CPU s per simulated s | {m['cpu_per_sim_s']:.3f} (worst {worst['cpu_per_sim_s']:.3f}) "
-                     f"| <= 0.33 | - |")
-    if "amcl" in only:
-        res = bench_amcl()
-        report["amcl"] = res
-        for c in res.get("cost", []):
-            lines.append(f"| amcl update, {c['particles']} particles x {c['beams']} beams, {c['map']}: median "
-                         f"[ms] | {c['median_ms']:.1f} (with the pose estimate {c['with_estimate_median_ms']:.1f}) "
-                         f"| <= 10 | {c['peak_rss_mb']:.0f} |")
-        if "tracking" in res:
-            t = res["tracking"]
-            lines.append(f"| amcl tracking on the tour from the known pose: position / yaw RMSE after 5 s | "
-                         f"{t['position_rmse_m']:.3f} m / {t['yaw_rmse_deg']:.2f} deg | <= 0.05 m / <= 2 deg "
-                         f"| {t['peak_rss_mb']:.0f} |")
-        if "global" in res:
-            g = res["global"]
-            lines.append(f"| amcl global localization, converged within 15 m of driving | {g['converged']} of "
-                         f"{g['runs']} | >= 18 of 20 | {g['peak_rss_mb']:.0f} |")
-        if "kidnap" in res:
-            k = res["kidnap"]
-            lines.append(f"| amcl kidnapping, recovered within 15 m | {k['recovered']} of {k['runs']} | >= 8 of 10 "
-                         f"| {k['peak_rss_mb']:.0f} |")
-    if "planning" in only:
-        res = bench_planning(args.runs)
-        report["planning"] = res
-        rss = f"{res['peak_rss_mb']:.0f}"
-        n = res["navfn_willow"]
-        lines.append(f"| NavFn plan on willow-full-0.05 ({n['pairs']} far pairs, median of {len(n['repeats_median_ms'])} "
-                     f"repeats): median [ms] | {n['median_ms']:.0f} wall / {n['cpu_median_ms']:.0f} CPU (repeats "
-                     f"{n['repeats_median_ms']}) | <= 100 | {rss} |")
-        lines.append(f"| ... path / exact grid geodesic: worst (median) | {n['length_ratio_max']:.3f} "
-                     f"({n['length_ratio_median']:.3f}) | <= 1.05 | - |")
-        d = res["dwa_cycle"]
-        lines.append(f"| DWA control cycle, {d['samples']} samples: median [ms] | {d['median_ms']:.2f} wall / "
-                     f"{d['cpu_median_ms']:.2f} CPU (repeats {d['repeats_median_ms']}) | <= 10 | - |")
-        for key, name, vx in (("closed_loop_builtin", "built-in world", res["max_vel_x"]),
-                              ("closed_loop_willow", "willow-full-0.05", res["max_vel_x"]),
-                              ("closed_loop_builtin_fast", "built-in world",
-                               res.get("closed_loop_builtin_fast", {}).get("max_vel_x"))):
-            c = res.get(key)
-            if c is None:
-                continue
-            ratio = "-" if c["ratio_median"] is None else f"{c['ratio_median']:.2f}"
-            lines.append(f"| closed loop, {name}, {c['runs']} seeded pairs, max_vel_x {vx} m/s: reached / "
-                         f"collisions / median time ratio | {c['reached_share'] * 100:.0f}% / {c['collisions']} / "
-                         f"{ratio} | >= 98% / 0 / <= 1.5 | - |")
-    if "explore" in only:
-        res = bench_explore()
-        report["explore"] = res
-        for world, r in res.items():
-            runs = r["runs"]
-            med = {k: statistics.median(x.get(k, 0.0) for x in runs) for k in ("precision", "recall", "sim_s")}
-            lines.append(f"| exploration of {world} from {len(runs)} seeded start(s): explored share min / median, "
-                         f"collisions, simulated time median [s] | {r['coverage_min']:.3f} / {r['coverage_median']:.3f}, "
-                         f"{r['collisions']}, {med['sim_s']:.0f} | >= {0.95 if world == 'builtin' else 0.90} each, 0 "
-                         f"| - |")
-            lines.append(f"| ... map precision / recall, median | {med['precision']:.3f} / {med['recall']:.3f} | "
-                         f">= 0.95 / >= 0.90 | - |")
-    if "patrol" in only:
-        res = bench_patrol()
-        report["patrol"] = res
-        boxes = ", ".join(f"{b['min_dist']:.2f}" for b in res["boxes"]) or "none dropped"
-        lines.append(f"| patrol, {res['rounds']} rounds x 3 spots, a box on the route twice: reached / skipped, "
-                     f"collisions, robot centre to box [m] | {res['reached']} / {res['skipped']}, "
-                     f"{res['collisions']}, {boxes} | every spot reached or skipped, 0, > "
-                     f"{res['box_clearance_needed_m']:.2f} | - |")
-    if "multi_robot" in only:
-        res = bench_multi_robot(min(args.runs, 3))
-        report["multi_robot"] = res
-        for loc, r in res.get("lesson", {}).items():
-            lines.append(f"| multi-robot lesson ({loc}): runs passed, goals reached, collisions, median / max "
-                         f"xy error [m] | {r['runs_passed']}/{r['runs']}, {r['goals_reached']}/{r['goals']}, "
-                         f"{r['collisions']}, {r['median_xy_error_m']} / {r['max_xy_error_m']} | all, 0 | - |")
-        sc = res.get("scale")
-        if sc:
-            per = [row.get("cpu_cores_per_robot_median") for row in sc["rows"] if row.get("rtf", 0) >= sc["rtf_threshold"]]
-            lines.append(f"| robots (amcl + move_base each) at >= 1x real time on willow-full; cores per robot | "
-                         f"{sc['max_robots_at_real_time']}; {per[-1] if per else '-'} | report | - |")
-    if "e2e" in only:
-        res = bench_e2e()
-        report["e2e"] = res
-        lines.append(f"| end-to-end rostest (course project), seeds 1..10 | {res['passed']} of "
-                     f"{res['passed'] + res['failed']} | 10 of 10 | - |")
+    command = shlex.join(["tools/bench.py"] + sys.argv[1:])
+    report = {"machine": bench_report.machine(), "commit": bench_report.git_commit(), "records": {}}
     path = os.path.join(OUT, "bench.json")
-    with open(path + ".tmp", "w") as f:
-        json.dump(report, f, indent=2)
-    os.replace(path + ".tmp", path)
-    print("\n".join(lines))
-    print(f"\nJSON: {os.path.relpath(path, WS)}")
+    # Sections run in the page's order; each one's record is merged into the store and the
+    # page re-rendered as soon as it ends, so a later failure keeps the earlier sections.
+    for section in [s for s in bench_report.SECTIONS if s in only]:
+        result, rec = bench_report.run_section(section, measures[section], command)
+        if result is None:
+            print(f"{section}: skipped (its benchmark script is missing)")
+            continue
+        report[section] = result
+        report["records"][section] = rec
+        with open(path + ".tmp", "w") as f:
+            json.dump(report, f, indent=2)
+        os.replace(path + ".tmp", path)
+        store = bench_report.merge(bench_report.load_store(), [rec])
+        bench_report.save_store(store)
+        bench_report.render_files(store)
+        print(f"\n{section}: " + bench_report.context_line(rec))
+        print("\n".join(bench_report.table(rec["rows"])), flush=True)
+    print(f"\nJSON: {os.path.relpath(path, WS)}; store {os.path.relpath(bench_report.STORE, WS)}, page "
+          f"{os.path.relpath(bench_report.PAGE, WS)}")
     return 0
 
 

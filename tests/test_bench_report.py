@@ -1,0 +1,199 @@
+"""tools/bench_report.py without ROS: rows from section results, the store's merge, the
+rendered page and the README's table, from small hand-made stores."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
+import bench_report  # noqa: E402
+
+MACHINE = {"cores": 2, "cpu_model": "Test CPU 3000", "python": "3.11.2"}
+LOAD = {"mean_1min": 1.5, "max_1min": 2.25, "start": [1.0, 0.5, 0.25], "end": [2.0, 1.0, 0.5],
+        "samples": 3, "period_s": 2.0}
+
+LASER = [
+    {"world": "built-in course building", "cells": "440 x 320", "scans_per_s": 9000.0, "runs": [9000],
+     "peak_rss_mb": 250.0},
+    {"world": "willow-full (0.1 m)", "cells": "584 x 526", "scans_per_s": 900.0, "runs": [900],  # under 1000
+     "peak_rss_mb": 260.0},
+    {"world": "willow-full-0.05", "cells": "1165 x 945", "scans_per_s": 3000.0, "runs": [3000],  # no target
+     "peak_rss_mb": 290.0},
+]
+SIM_RTF = {"rtf": 45.0, "runs_rtf": [44.0, 45.0, 46.0], "sim_cpu_s_per_sim_s": 0.02, "scan_hz_sim": 40.0,
+           "odom_hz_sim": 50.0, "clock_hz_sim": 200.0, "sim_rss_mb": 120.0}
+
+
+def make_record(section, result, commit, date="2026-01-02T03:04:05+00:00"):
+    return bench_report.record(section, result, commit=commit, date=date, machine_info=MACHINE, load=LOAD,
+                               command=f"tools/bench.py --only {section}", wall_s=12.3)
+
+
+def test_rows_laser_targets_met_unmet_and_missing():
+    rows = bench_report.rows_laser(LASER)
+    assert [r["met"] for r in rows] == [True, False, None]
+    assert [r["target"] for r in rows] == [">= 2000", ">= 1000", None]
+    assert rows[0]["values"]["scans_per_s"] == 9000.0
+
+
+def test_merge_replaces_sections_run_and_keeps_the_others_with_their_commit():
+    store = bench_report.merge(bench_report.empty_store(),
+                               [make_record("laser", LASER, "aaaaaaa"), make_record("sim_rtf", SIM_RTF, "bbbbbbb")])
+    faster = [dict(LASER[1], scans_per_s=1500.0)]
+    later = make_record("laser", faster, "ccccccc-dirty", date="2026-02-01T00:00:00+00:00")
+    merged = bench_report.merge(store, [later])
+
+    assert set(merged["sections"]) == {"laser", "sim_rtf"}
+    assert merged["sections"]["sim_rtf"] == store["sections"]["sim_rtf"]
+    assert merged["sections"]["sim_rtf"]["commit"] == "bbbbbbb"
+    assert merged["sections"]["laser"]["commit"] == "ccccccc-dirty"
+    assert [r["met"] for r in merged["sections"]["laser"]["rows"]] == [True]
+    assert store["sections"]["laser"]["commit"] == "aaaaaaa"  # the old store is not modified
+
+
+def test_page_shows_rows_context_missing_target_unmet_and_unmeasured_sections():
+    store = bench_report.merge(bench_report.empty_store(),
+                               [make_record("laser", LASER, "aaaaaaa"), make_record("sim_rtf", SIM_RTF, "bbbbbbb")])
+    page = bench_report.render_page(store)
+    lines = page.splitlines()
+
+    assert lines[0] == "# Benchmarks"
+    assert "make bench-page" in page and "do not edit" in page
+    laser = page.split("## laser")[1].split("## sim_rtf")[0]
+    assert "Commit `aaaaaaa`, 2026-01-02T03:04:05+00:00, 2 cores (Test CPU 3000)" in laser
+    assert "load average during the run 1.50 mean / 2.25 max" in laser
+    assert "command `tools/bench.py --only laser`" in laser
+    assert "| figure | measured | target | met |" in laser
+    builtin, willow, willow05 = [line.split(" | ") for line in lines if line.startswith("| laser scans/s")]
+    assert builtin[2:] == [">= 2000", "yes |"]
+    assert willow[2:] == [">= 1000", "**no** |"]
+    assert willow05[2:] == ["-", "- |"]
+    assert "Commit `bbbbbbb`" in page.split("## sim_rtf")[1].split("## slam_carmen")[0]
+    amcl = page.split("## amcl")[1].split("## planning")[0]
+    assert 'Not measured yet: `make bench BENCH_ARGS="--only amcl"`.' in amcl
+
+
+def test_page_is_reproducible_from_the_stored_json(tmp_path):
+    store = bench_report.merge(bench_report.empty_store(), [make_record("sim_rtf", SIM_RTF, "bbbbbbb")])
+    path = str(tmp_path / "bench.json")
+    bench_report.save_store(store, path)
+    assert bench_report.render_page(bench_report.load_store(path)) == bench_report.render_page(store)
+    with open(path) as f:
+        assert json.load(f)["sections"]["sim_rtf"]["result"] == SIM_RTF
+
+
+def test_load_store_missing_file_is_empty_and_wrong_format_is_an_error(tmp_path):
+    assert bench_report.load_store(str(tmp_path / "none.json")) == bench_report.empty_store()
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"format": 999, "sections": {}}))
+    with pytest.raises(ValueError, match="format 999"):
+        bench_report.load_store(str(bad))
+
+
+def test_readme_table_is_spliced_between_the_markers_only():
+    store = bench_report.merge(bench_report.empty_store(), [make_record("laser", LASER, "aaaaaaa")])
+    readme = "\n".join(["# title", bench_report.README_BEGIN, "| stale |", bench_report.README_END, "after"])
+    lines = bench_report.splice_readme(readme, store).splitlines()
+
+    assert lines[:2] == ["# title", bench_report.README_BEGIN] and lines[-2:] == [bench_report.README_END, "after"]
+    assert "| stale |" not in lines
+    assert any(line.startswith("| laser scans/s") and line.endswith("| **no** | `aaaaaaa` |") for line in lines)
+    assert any("sim_rtf" in line and "not measured yet" in line for line in lines)
+    with pytest.raises(ValueError, match="no"):
+        bench_report.splice_readme("# no markers", store)
+
+
+def test_load_sampler_reports_start_end_mean_and_max():
+    with bench_report.LoadSampler(period=0.01) as load:
+        pass
+    s = load.summary()
+    assert s["samples"] >= 2 and len(s["start"]) == 3 and len(s["end"]) == 3
+    assert 0.0 <= s["mean_1min"] <= s["max_1min"]
+
+
+def test_cpu_model_reads_the_first_model_name(tmp_path):
+    info = tmp_path / "cpuinfo"
+    info.write_text("processor\t: 0\nmodel name\t: Test CPU 3000\nprocessor\t: 1\nmodel name\t: Other\n")
+    assert bench_report.cpu_model(str(info)) == "Test CPU 3000"
+    assert bench_report.cpu_model(str(tmp_path / "missing")) is None
+
+
+# Minimal results in the shape each section's script writes (only the keys the rows read).
+SECTION_RESULTS = {
+    "slam_carmen": {"results": [
+        {"log": "intel", "particles": 30, "ate_slam_m": 0.05, "ate_odom_m": 3.5, "cpu_ms_per_processed_scan": 190.0,
+         "processed_scans": 900, "peak_rss_mb": 400.0},
+        {"log": "aces", "particles": 30, "ate_slam_m": 0.18, "ate_odom_m": 9.9, "cpu_ms_per_processed_scan": 330.0,
+         "processed_scans": 800, "peak_rss_mb": 500.0}]},
+    "slam_sim": {"median": {"ate_m": 0.006, "precision": 0.999, "recall": 0.998, "cpu_per_sim_s": 0.22,
+                            "peak_rss_mb": 325.0},
+                 "runs": [{"ate_m": 0.006, "precision": 0.999, "recall": 0.998, "cpu_per_sim_s": 0.22},
+                          {"ate_m": 0.018, "precision": 0.998, "recall": 0.996, "cpu_per_sim_s": 0.23}]},
+    "amcl": {"cost": [{"map": "built-in", "particles": 5000, "beams": 61, "median_ms": 3.3, "p90_ms": 4.0,
+                       "with_estimate_median_ms": 3.6, "peak_rss_mb": 300.0}],
+             "tracking": {"position_rmse_m": 0.03, "yaw_rmse_deg": 0.18, "position_max_m": 0.1, "yaw_max_deg": 1.0},
+             "global": {"runs": 20, "converged": 17}, "kidnap": {"runs": 10, "recovered": 10}},
+    "planning": {"peak_rss_mb": 500.0, "max_vel_x": 1.0,
+                 "navfn_willow": {"pairs": 12, "repeats_median_ms": [80, 82], "median_ms": 82.0, "cpu_median_ms": 81.0,
+                                  "length_ratio_max": 1.025, "length_ratio_median": 1.001},
+                 "dwa_cycle": {"samples": 800, "median_ms": 6.0, "cpu_median_ms": 6.2, "repeats_median_ms": [6.0]},
+                 "closed_loop_builtin": {"runs": 50, "reached_share": 1.0, "collisions": 0, "ratio_median": 1.32},
+                 "closed_loop_willow": {"runs": 19, "reached_share": 0.95, "collisions": 0, "ratio_median": None},
+                 "closed_loop_builtin_fast": {"runs": 50, "reached_share": 1.0, "collisions": 0, "ratio_median": 1.57,
+                                              "max_vel_x": 1.5}},
+    "explore": {"builtin": {"coverage_min": 0.977, "coverage_median": 0.983, "collisions": 0,
+                            "runs": [{"precision": 0.99, "recall": 0.99, "sim_s": 99.0}]}},
+    "patrol": {"rounds": 10, "spots_expected": 30, "reached": 30, "skipped": 0, "collisions": 0,
+               "box_clearance_needed_m": 0.46, "boxes": [{"min_dist": 0.64}, {"min_dist": 0.67}]},
+    "multi_robot": {"lesson": {"amcl": {"runs_passed": 3, "runs": 3, "goals_reached": 6, "goals": 6, "collisions": 0,
+                                        "median_xy_error_m": 0.059, "max_xy_error_m": 0.1}},
+                    "scale": {"rtf_threshold": 1.0, "max_robots_at_real_time": 4,
+                              "rows": [{"rtf": 1.2, "cpu_cores_per_robot_median": 0.42}]}},
+    "e2e": {"passed": 9, "failed": 1, "lines": []},
+}
+EXPECTED_MET = {
+    "slam_carmen": [True, None],
+    "slam_sim": [True, True, True],
+    "amcl": [True, True, False, True],
+    "planning": [True, True, True, True, False, None],  # willow: 95% < 98% and no ratio
+    "explore": [True, True],
+    "patrol": [True],
+    "multi_robot": [True, None],
+    "e2e": [False],
+}
+
+
+@pytest.mark.parametrize("section", sorted(SECTION_RESULTS))
+def test_rows_of_every_section(section):
+    rows = bench_report.ROWS[section](SECTION_RESULTS[section])
+    assert [r["met"] for r in rows] == EXPECTED_MET[section]
+    for r in rows:
+        assert r["figure"] and r["measured"]
+        assert (r["target"] is None) == (r["met"] is None)
+    page = bench_report.render_page(bench_report.merge(bench_report.empty_store(),
+                                                       [make_record(section, SECTION_RESULTS[section], "ddddddd")]))
+    assert page.count("| **no** |") == EXPECTED_MET[section].count(False)
+
+
+def test_git_commit_is_dirty_only_for_changes_a_run_does_not_write_itself(tmp_path):
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, stdout=subprocess.DEVNULL)
+
+    git("init", "-q")
+    (tmp_path / "docs").mkdir()
+    for name in ("code.py", "docs/bench.json", "README.md"):
+        (tmp_path / name).write_text("0\n")
+    git("add", "-A")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "c")
+    head = subprocess.run(["git", "-C", str(tmp_path), "rev-parse", "--short", "HEAD"], check=True,
+                          stdout=subprocess.PIPE, text=True).stdout.strip()
+
+    (tmp_path / "docs" / "bench.json").write_text("1\n")  # a previous partial run
+    (tmp_path / "README.md").write_text("1\n")
+    (tmp_path / "untracked.txt").write_text("1\n")
+    assert bench_report.git_commit(str(tmp_path)) == head
+    (tmp_path / "code.py").write_text("1\n")
+    assert bench_report.git_commit(str(tmp_path)) == head + "-dirty"
+    assert bench_report.git_commit(str(tmp_path / "docs" / "no-such-dir")) is None
