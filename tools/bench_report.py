@@ -455,20 +455,20 @@ def render_page(store):
 
 
 def render_readme_table(store):
-    """The README's table: every stored row with its section's commit, and one line per
-    section not measured yet."""
+    """The README's table: each section's first row (its headline figure) with the
+    section's commit, and one line per section not measured yet; the page has every row."""
     lines = ["| figure | measured | target | met | commit |", "| --- | --- | --- | --- | --- |"]
     sections = store.get("sections", {})
     for name in SECTIONS:
         rec = sections.get(name)
-        if rec is None:
+        if rec is None or not rec["rows"]:
             lines.append(f"| {name}: {_cell(SECTIONS[name])} | not measured yet (`{measure_command(name)}`) "
                          f"| {NOT_APPLICABLE} | {NOT_APPLICABLE} | {NOT_APPLICABLE} |")
             continue
-        for r in rec["rows"]:
-            lines.append(f"| {_cell(r['figure'])} | {_cell(r['measured'])} | "
-                         f"{_cell(r['target'] if r['target'] is not None else NOT_APPLICABLE)} | {met_text(r)} "
-                         f"| `{rec['commit']}` |")
+        r = rec["rows"][0]
+        lines.append(f"| {_cell(r['figure'])} | {_cell(r['measured'])} | "
+                     f"{_cell(r['target'] if r['target'] is not None else NOT_APPLICABLE)} | {met_text(r)} "
+                     f"| `{rec['commit']}` |")
     return lines
 
 
