@@ -22,11 +22,11 @@ BACKGROUND = np.array([48, 48, 48])   # rviz's default background colour (RGB)
 
 
 def need(*exes):
-    """Skip the test when an executable is missing."""
+    """Fail the test, naming them, when executables `make setup` installs are missing."""
     missing = [e for e in exes if shutil.which(e, path="/usr/bin:/bin") is None
                and shutil.which(e) is None]
     if missing:
-        pytest.skip("missing executables: %s" % ", ".join(missing))
+        pytest.fail("missing executables (run `make setup`): %s" % ", ".join(missing))
 
 
 def free_port():

@@ -80,8 +80,7 @@ def bench_laser(runs, scans_per_run=500):
     angles = LaserParams().angles()
     for name, path in WORLDS.items():
         if not os.path.exists(path):
-            rows.append({"world": name, "skipped": f"{path} missing"})
-            continue
+            raise FileNotFoundError(f"laser benchmark: map {path} is missing (a partial checkout?)")
         world = World.from_yaml(path)
         rng = np.random.default_rng(0)
         ys, xs = np.nonzero((world.dist * world.resolution > 0.4) & (world.grid.data == 0))
@@ -171,8 +170,6 @@ def bench_sim_rtf_runs(runs):
 def bench_slam_carmen(logs=None):
     """bench_slam_carmen.py on `logs` (names, default all of its logs)."""
     script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_carmen.py")
-    if not os.path.exists(script):
-        return None
     path = os.path.join(OUT, "bench_slam_carmen.json")
     subprocess.run([sys.executable, script, "--json", path, "--out", OUT] + (["--logs"] + logs if logs else []),
                    check=True)
@@ -309,8 +306,7 @@ def main():
     for section in [s for s in bench_report.SECTIONS if s in only]:
         result, rec = bench_report.run_section(section, measures[section], command)
         if result is None:
-            print(f"{section}: skipped (its benchmark script is missing)")
-            continue
+            raise RuntimeError(f"benchmark section {section} produced no result")
         report[section] = result
         report["records"][section] = rec
         with open(path + ".tmp", "w") as f:
