@@ -25,11 +25,6 @@ KNOWN_FLAKY = {
     # issue 5 again: its last part (the command-line client driving back to 0 0 0) has
     # stalled beside a hall pillar (DWA finds no valid command), about 1 run in 5.
     "my_summit_navigation/get_coordinates_bad_input.test",
-    # issue 4 (global localization): particles spread over the whole building can settle
-    # on its near-symmetric twin (one CI run of the 2026-11-21 session: 10 m / 179 deg off
-    # after 25 m of tour); augmented-MCL recovery (recovery_alpha_*) had not pulled it
-    # back within the test's 25 m. bench: 19 of 20 seeded starts converge within 15 m.
-    "my_summit_localization/amcl_global.test",
 }
 
 

@@ -15,6 +15,7 @@ def test_defaults_are_amcls():
     assert (c.min_particles, c.max_particles, c.kld_err, c.kld_z) == (100, 5000, 0.01, 0.99)
     assert (c.update_min_d, c.update_min_a, c.resample_interval) == (0.2, pytest.approx(math.pi / 6), 2)
     assert (c.recovery_alpha_slow, c.recovery_alpha_fast) == (0.0, 0.0)
+    assert c.recovery_likelihood_threshold == 0.0   # ours, off: amcl's behaviour
     assert c.initial_cov_xx == 0.25 and c.initial_cov_aa == pytest.approx((math.pi / 12) ** 2)
     assert (c.laser_max_beams, c.laser_z_hit, c.laser_z_short, c.laser_z_max, c.laser_z_rand) == \
         (30, 0.95, 0.1, 0.05, 0.05)
@@ -46,6 +47,7 @@ def test_int_and_float_coercion():
     ({"laser_model_type": "beams"}, "laser_model_type"),
     ({"odom_model_type": "ackermann"}, "odom_model_type"),
     ({"recovery_alpha_fast": 1.5}, "within \\[0, 1\\]"),
+    ({"recovery_likelihood_threshold": -0.1}, "recovery_likelihood_threshold.*within"),
     ({"laser_sigma_hit": 0.0}, "laser_sigma_hit.*> 0"),
     ({"odom_alpha3": -0.1}, "odom_alpha3.*>= 0"),
     ({"update_min_d": float("nan")}, "finite"),

@@ -1,11 +1,14 @@
 """The particle filter: KLD bound, low-variance resampling, statistics, clustering,
 initialisation, global localization over free cells, update gating, and a short
 tracking run on an exact simulated scan."""
+import dataclasses
+import importlib.util
 import math
 import os
 
 import numpy as np
 import pytest
+import yaml
 from scipy.stats import chi2, norm
 
 from summit_nav_common.map_io import GridMap
@@ -18,6 +21,7 @@ from my_summit_localization.particle_filter import (
 
 WORLDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "summit_xl_sim", "worlds")
 BUILTIN = os.path.join(WORLDS, "course_building.yaml")
+PARAMS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config", "amcl_params.yaml")
 ANGLES = np.linspace(-2.356194490192345, 2.356194490192345, 1081)
 MOUNT = (0.25, 0.0, 0.0)
 
@@ -114,6 +118,76 @@ def test_injection_probability_and_random_particles(world):
     pf2.w_slow, pf2.w_fast = 1.0, 0.25
     pf2.resample()
     assert (pf2.w_slow, pf2.w_fast) == (0.0, 0.0)  # amcl's reset
+
+
+def test_likelihood_threshold_is_a_floor_under_w_slow(world):
+    """recovery_likelihood_threshold: injection while w_fast is below it even if w_slow is
+    lower still; no effect above it, or with recovery off (recovery_alpha_fast 0)."""
+    cfg = AmclConfig(min_particles=500, max_particles=500, recovery_alpha_slow=0.001,
+                     recovery_alpha_fast=0.1, recovery_likelihood_threshold=0.8)
+    pf = ParticleFilter(cfg, world.grid, np.random.default_rng(3))
+    pf.w_slow, pf.w_fast = 0.3, 0.6       # w_fast above w_slow: augmented MCL alone injects nothing
+    assert pf.injection_probability() == pytest.approx(0.25)
+    pf.w_slow, pf.w_fast = 0.9, 0.6       # w_slow above the threshold: augmented MCL as before
+    assert pf.injection_probability() == pytest.approx(1.0 / 3.0)
+    pf.w_slow, pf.w_fast = 0.3, 0.85
+    assert pf.injection_probability() == 0.0
+    off = ParticleFilter(dataclasses.replace(cfg, recovery_alpha_slow=0.0, recovery_alpha_fast=0.0),
+                         world.grid, np.random.default_rng(3))
+    off.w_slow = off.w_fast = 0.3
+    assert off.injection_probability() == 0.0
+
+
+def test_global_localization_leaves_the_halls_twin(world):
+    """Regression: bench_amcl_core.py's global localization start 1 (seed 100: robot at
+    (6.38, 5.58, -2.141) in the main hall, filter rng [100, 1, 1]) with the package's
+    amcl_params.yaml.
+
+    The first resampling after /global_localization (the second scan) kept the
+    neighbourhood of the single best of the 5000 uniform particles: with the product of
+    61 beam likelihoods a particle 0.2 m / 5 deg off the truth scores about as well as
+    the best particle near the hall's 180-degree twin (per-beam likelihood ~0.6 both), so
+    which one wins is a lottery, and here the twin won. Augmented MCL then never
+    injected: w_slow was seeded by the spread cloud's likelihood (0.31 per beam), the twin
+    scored 0.45-0.65, so w_fast / w_slow > 1; with recovery_alpha_slow 0.001, w_slow would
+    need ~1000 updates to learn that a localized robot scores ~0.9. The run ended 15 m
+    later still ~180 deg off (the rostest amcl_global.test failed the same way, 10 m /
+    179 deg off after 25 m of tour). recovery_likelihood_threshold (0.75 in the YAML)
+    keeps injecting while w_fast is below it: converged within 2 m. The same run with
+    the threshold off is checked to still end on the twin, so this test keeps testing it.
+    """
+    bench = _bench_module()
+    with open(PARAMS) as f:
+        cfg = AmclConfig.from_dict(yaml.safe_load(f))
+    assert cfg.recovery_likelihood_threshold > 0.0
+
+    def run(config):
+        seed, k = 100, 1                  # bench_global's seed and run index
+        rng = np.random.default_rng([seed, k])
+        sim = bench.Simulation(world, seed=seed + k)
+        sim.add_robot(bench.ROBOT, 2.0, 7.0, 0.0)
+        sim.set_pose(bench.ROBOT, *bench.spawn_pose(sim, world, rng))
+        state = sim.robots[bench.ROBOT]
+        pf = ParticleFilter(config, world.grid, np.random.default_rng([seed, k, 1]))
+        pf.global_localization()
+        ok, driven, _ = bench.run_until_converged(pf, sim, state, rng, bench.DRIVE_BUDGET)
+        return ok, driven, pf.pose_at(state.odom_pose), state.pose
+
+    ok, driven, est, truth = run(dataclasses.replace(cfg, recovery_likelihood_threshold=0.0))
+    assert not ok, "without the threshold this start no longer ends on the twin"
+    assert abs(math.remainder(est[2] - truth[2], 2.0 * math.pi)) > math.radians(150)
+    ok, driven, est, truth = run(cfg)
+    assert ok, f"not converged after {driven:.1f} m (estimate {est}, truth {truth})"
+    assert driven < 5.0
+
+
+def _bench_module():
+    """scripts/bench_amcl_core.py as a module (its simulator drivers and seeded starts)."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts", "bench_amcl_core.py")
+    spec = importlib.util.spec_from_file_location("bench_amcl_core", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 # -- statistics and clusters --------------------------------------------------------------

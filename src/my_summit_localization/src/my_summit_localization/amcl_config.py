@@ -36,6 +36,10 @@ class AmclConfig:
     transform_tolerance: float = 0.1    # time the map->odom tf is post-dated into the future [s]
     recovery_alpha_slow: float = 0.0    # decay rate of the slow weight average (0 = off; 0.001 good) [-]
     recovery_alpha_fast: float = 0.0    # decay rate of the fast weight average (0 = off; 0.1 good) [-]
+    # Not amcl's: per-beam scan likelihood a localized robot reaches; with recovery on
+    # (recovery_alpha_fast > 0), w_fast below it injects random particles even when w_slow
+    # is lower (sensor resetting; 0 = off, amcl's behaviour) [-]
+    recovery_likelihood_threshold: float = 0.0
     initial_pose_x: float = 0.0         # initial pose mean x [m]
     initial_pose_y: float = 0.0         # initial pose mean y [m]
     initial_pose_a: float = 0.0         # initial pose mean yaw [rad]
@@ -114,8 +118,8 @@ class AmclConfig:
                      "odom_alpha1", "odom_alpha2", "odom_alpha3", "odom_alpha4", "odom_alpha5"):
             _check(getattr(self, name) >= 0.0, name, getattr(self, name), "must be >= 0")
         _check(self.resample_interval >= 1, "resample_interval", self.resample_interval, "must be >= 1")
-        for name in ("recovery_alpha_slow", "recovery_alpha_fast", "beam_skip_threshold",
-                     "beam_skip_error_threshold"):
+        for name in ("recovery_alpha_slow", "recovery_alpha_fast", "recovery_likelihood_threshold",
+                     "beam_skip_threshold", "beam_skip_error_threshold"):
             v = getattr(self, name)
             _check(0.0 <= v <= 1.0, name, v, "must be within [0, 1]")
         _check(self.laser_max_beams >= 2, "laser_max_beams", self.laser_max_beams, "must be >= 2")

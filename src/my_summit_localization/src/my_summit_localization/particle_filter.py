@@ -7,6 +7,13 @@ Algorithms:
   the scan likelihood (decay rates recovery_alpha_slow / recovery_alpha_fast); on each
   resampling a particle is replaced by a uniformly random free-space pose with
   probability max(0, 1 - w_fast / w_slow).
+- Sensor resetting (Lenser & Veloso 2000, "Sensor Resetting Localization for Poorly
+  Modelled Mobile Robots", ICRA): the fixed threshold that augmented MCL's w_slow
+  replaced, kept as a floor under w_slow (recovery_likelihood_threshold, 0 = off; only
+  while recovery is on): the probability is max(0, 1 - w_fast / max(w_slow, threshold)).
+  w_slow learns what a localized robot scores only from a history; after global
+  localization it starts from the spread cloud's low likelihood, against which a wrong
+  but plausible place looks fine.
 - KLD-sampling (Fox 2003, "Adapting the Sample Size in Particle Filters Through
   KLD-Sampling", IJRR 22(12)): the new set grows until its size n exceeds
   ``(k-1)/(2 kld_err) * (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) * kld_z)^3`` (clamped to
@@ -460,10 +467,15 @@ class ParticleFilter:
         return w_avg
 
     def injection_probability(self):
-        """Augmented MCL: probability max(0, 1 - w_fast / w_slow) of a random particle."""
+        """Augmented MCL: probability max(0, 1 - w_fast / w_ref) of a random particle,
+        w_ref = max(w_slow, recovery_likelihood_threshold) while recovery is on
+        (recovery_alpha_fast > 0), else w_slow; 0 before the first scan."""
         if self.w_slow <= 0.0:
             return 0.0
-        return max(0.0, 1.0 - self.w_fast / self.w_slow)
+        w_ref = self.w_slow
+        if self.cfg.recovery_alpha_fast > 0.0:
+            w_ref = max(w_ref, self.cfg.recovery_likelihood_threshold)
+        return max(0.0, 1.0 - self.w_fast / w_ref)
 
     def resample(self):
         """KLD-sampling low-variance resampling with random injection; returns True if done.
