@@ -79,6 +79,69 @@ def test_map_server_malformed_yaml_and_unknown_mode(tmp_path):
     assert f"{bad}: field 'occupied_thresh' must be within [0, 1]" in out, out[-3000:]
 
 
+REF_MAPS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "map_server_tests")
+DEPRECATION = "Using deprecated map server interface. Please switch to new interface."
+
+
+def map_server_launch(tmp_path, args):
+    """A launch file starting map_server with args (required, as provide_map.launch)."""
+    path = tmp_path / "deprecated.launch"
+    path.write_text(f'<launch><node pkg="my_summit_mapping" type="map_server" name="map_server" '
+                    f'args="{args}" output="screen" required="true"/></launch>\n')
+    return str(path)
+
+
+@pytest.mark.integration
+def test_map_server_deprecated_image_resolution_form(tmp_path):
+    """``map_server IMAGE RESOLUTION`` serves the image at that resolution, origin 0."""
+    port = free_port()
+    env = env_for(tmp_path, port)
+    image = os.path.join(REF_MAPS, "testmap.png")
+    server = subprocess.Popen(["roslaunch", "-p", str(port), map_server_launch(tmp_path, f"{image} 0.1")],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                              start_new_session=True)
+    try:
+        deadline = time.monotonic() + TIMEOUT  # wall: roslaunch starts its master first
+        while True:
+            _, code, out = run(["rostopic", "echo", "-n", "1", "/map_metadata"], env)
+            if code == 0 or time.monotonic() > deadline or server.poll() is not None:
+                break
+            time.sleep(1.0)
+        assert code == 0, out
+        meta = {k.strip(): v.strip() for k, v in (l.split(":", 1) for l in out.splitlines()
+                                                   if ":" in l and not l.startswith(" "))}
+        assert (meta["width"], meta["height"]) == ("10", "10"), out
+        assert float(meta["resolution"]) == pytest.approx(0.1), out
+        _, code, origin = run(["rostopic", "echo", "-n", "1", "/map/info/origin/position"], env)
+        assert code == 0 and "x: 0.0" in origin and "y: 0.0" in origin, origin
+    finally:
+        os.killpg(server.pid, signal.SIGINT)
+        try:
+            log, _ = server.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(server.pid, signal.SIGKILL)
+            log, _ = server.communicate()
+    assert DEPRECATION in log, log[-3000:]
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("args, needle", [
+    ("{tmp}/gone.png 0.1", "gone.png: image file does not exist"),
+    ("{ref}/testmap.png ten", "argument RESOLUTION must be a positive number [m/cell], got 'ten'"),
+    ("{ref}/testmap.png -0.1", "argument RESOLUTION must be a positive number [m/cell], got '-0.1'"),
+    ("{ref}/testmap.png 0.1 extra", "expected 1 or 2 arguments, got 3"),
+])
+def test_map_server_deprecated_form_bad_arguments(tmp_path, args, needle):
+    port = free_port()
+    launch = map_server_launch(tmp_path, args.format(tmp=tmp_path, ref=REF_MAPS))
+    secs, _, out = run(["roslaunch", "-p", str(port), launch], env_for(tmp_path, port))
+    assert needle in out, out[-3000:]
+    if "RESOLUTION" in needle or "expected 1 or 2" in needle:
+        assert "DEPRECATED USAGE: map_server <map> <resolution>" in out, out[-3000:]
+    assert "REQUIRED process [map_server" in out, out[-3000:]
+    assert secs < TIMEOUT / 2
+
+
 @pytest.mark.integration
 def test_map_saver_into_missing_or_read_only_folder(tmp_path):
     env = env_for(tmp_path, free_port())  # no master: the saver must fail before waiting for one

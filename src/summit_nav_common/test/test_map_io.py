@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from summit_nav_common.map_io import GridMap, MapError, image_to_grid, load_map, save_map
+from summit_nav_common.map_io import GridMap, MapError, image_to_grid, load_image_map, load_map, save_map
 
 # The workspace's data/ folder (data/README.md names each source).
 REF = os.path.join(os.path.dirname(__file__), "..", "..", "..", "data", "map_server_tests")
@@ -157,3 +157,33 @@ def test_unknown_solid_beyond_field_is_read(tmp_path):
     for bad in ("maybe", -1, "true"):
         with pytest.raises(MapError, match="'unknown_solid_beyond' must be a distance >= 0"):
             load_map(write_map(tmp_path, img, name="e", unknown_solid_beyond=bad))
+
+
+def test_image_with_resolution_as_deprecated_map_server():
+    """``map_server testmap.png 0.1``: the reference grid, at origin 0, trinary."""
+    grid = load_image_map(os.path.join(REF, "testmap.png"), 0.1)
+    np.testing.assert_array_equal(grid.data.reshape(-1), EXPECTED)
+    assert grid.resolution == 0.1 and grid.origin == (0.0, 0.0, 0.0)
+    assert (grid.source["mode"], grid.source["negate"], grid.source["occupied_thresh"],
+            grid.source["free_thresh"]) == ("trinary", 0, 0.65, 0.196)
+    # Same cells as the YAML form of the same picture.
+    np.testing.assert_array_equal(grid.data, load_map(os.path.join(REF, "testmap.yaml")).data)
+    negated = load_image_map(os.path.join(REF, "testmap.bmp"), 0.25, negate=1)
+    assert negated.resolution == 0.25
+    np.testing.assert_array_equal(negated.data.reshape(-1) == 100, EXPECTED == 0)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (("gone.png", 0.1), "gone.png: image file does not exist"),
+    (("testmap.png", 0.0), "resolution must be a positive number [m/cell], got 0.0"),
+    (("testmap.png", -1), "resolution must be a positive number [m/cell], got -1"),
+    (("testmap.png", float("nan")), "resolution must be a positive number"),
+    (("testmap.png", "0.1"), "resolution must be a positive number [m/cell], got '0.1'"),
+    (("testmap.png", 0.1, 2), "negate must be 0 or 1, got 2"),
+    (("testmap.png", 0.1, 0, 0.2, 0.5), "free_thresh (0.5) is above occupied_thresh (0.2)"),
+])
+def test_image_with_resolution_bad_input_names_it(args, needle):
+    image, *rest = args
+    with pytest.raises(MapError) as e:
+        load_image_map(os.path.join(REF, image), *rest)
+    assert needle in str(e.value)

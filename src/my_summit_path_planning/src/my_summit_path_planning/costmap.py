@@ -10,11 +10,15 @@ then every layer writes its costs into the master grid in the plugins' order) an
 Conventions: ``data`` is (size_y, size_x) uint8, row 0 the lowest y (OccupancyGrid
 order), cell (mx, my) = data[my, mx] covering [origin + m * resolution, ... + resolution).
 """
+import logging
 import math
 
 import numpy as np
 
 from .cost_values import FREE_SPACE, NO_INFORMATION
+
+
+_LOG = logging.getLogger(__name__)
 
 
 class CostmapError(ValueError):
@@ -354,11 +358,15 @@ class LayeredCostmap:
 
     master: a Costmap2D (its default value says whether unknown space is tracked);
     rolling_window: True for the local costmap, whose origin follows the robot;
-    footprint: a Footprint.
+    footprint: a Footprint; log: called with each warning of the costmap and its layers
+    (``warn_once``), default this package's Python logger; name: put in front of them.
     """
 
-    def __init__(self, master, footprint, rolling_window=False):
+    def __init__(self, master, footprint, rolling_window=False, log=None, name="costmap"):
         self.master = master
+        self.log = log if log is not None else _LOG.warning
+        self.name = name
+        self._warned = set()
         self.rolling_window = bool(rolling_window)
         self.layers = []
         self.footprint = footprint
@@ -375,15 +383,24 @@ class LayeredCostmap:
         params: {layer name: {parameter: value}} (the costmap's YAML namespace);
         CostmapError naming the plugin for an unknown type or a malformed entry.
         """
+        return cls(master, footprint, rolling_window).add_plugins(plugins, params)
+
+    def add_plugins(self, plugins, params):
+        """Add the layers of a costmap_2d ``plugins`` list, in order; returns self."""
         from . import layers as layer_mod
-        lc = cls(master, footprint, rolling_window)
         if not isinstance(plugins, (list, tuple)):
             raise CostmapError(f"plugins must be a list of {{name, type}}, got {plugins!r}")
         for i, p in enumerate(plugins):
             if not isinstance(p, dict) or "name" not in p or "type" not in p:
                 raise CostmapError(f"plugins[{i}] must have 'name' and 'type', got {p!r}")
-            lc.add_layer(layer_mod.make_layer(p["type"], p["name"], params.get(p["name"], {})))
-        return lc
+            self.add_layer(layer_mod.make_layer(p["type"], p["name"], params.get(p["name"], {})))
+        return self
+
+    def warn_once(self, message):
+        """Log a warning, prefixed with the costmap's name, the first time it is given."""
+        if message not in self._warned:
+            self._warned.add(message)
+            self.log(f"{self.name}: {message}")
 
     @property
     def inscribed_radius(self):

@@ -1,16 +1,18 @@
-"""The three costmap_2d layers: static map, obstacles from the laser, inflation.
+"""costmap_2d's layers: static map, obstacles from the laser (and its voxel variant), inflation.
 
 Reference: costmap_2d plugins ``static_layer.cpp`` (interpretValue: lethal threshold,
 unknown handling, trinary costs), ``obstacle_layer.cpp`` (marking within obstacle_range,
 ray-traced clearing within raytrace_range, inf_is_valid, combination_method, footprint
-clearing) and ``inflation_layer.cpp`` (the exponential cost decay); documentation at
-wiki.ros.org/costmap_2d/hydro/{staticmap,obstacles,inflation}.
+clearing, the sensor height tests of ``observation_buffer.cpp``), ``voxel_layer.cpp``
+(its height band, for planar lasers) and ``inflation_layer.cpp`` (the exponential cost
+decay); documentation at wiki.ros.org/costmap_2d/hydro/{staticmap,obstacles,inflation}.
 
 Each layer has the small interface of ``costmap.Layer`` and is chosen by the plugin
 type string of a costmap_2d YAML (``make_layer``). Everything is vectorized: clearing
 traces all rays at once (a vectorized walk along the exact rays, two samples per
 cell; ``ray_cells`` is the integer Bresenham-equivalent walk) and inflation is one ``cv2.distanceTransform``.
 """
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -24,6 +26,7 @@ from .costmap import CostmapError, Costmap2D, Layer, expand_bounds
 # Plugin type strings (costmap_2d YAML) and the short names some configs use.
 STATIC_TYPES = ("costmap_2d::StaticLayer",)
 OBSTACLE_TYPES = ("costmap_2d::ObstacleLayer",)
+VOXEL_TYPES = ("costmap_2d::VoxelLayer",)
 INFLATION_TYPES = ("costmap_2d::InflationLayer",)
 
 
@@ -184,7 +187,10 @@ class Observation:
     origin: sensor position (x, y) [m]; points: (N, 2) ray end points [m];
     mark: (N,) bool, False for rays that may only clear (no-return beams with
     inf_is_valid); obstacle_range / raytrace_range [m]; marking / clearing: what this
-    source is allowed to do.
+    source is allowed to do. z: height [m] of the (level, planar) sensor and so of all
+    its points in the costmap frame, None when unknown (then no height test);
+    min_obstacle_height / max_obstacle_height [m]: the source's height band (costmap_2d's
+    observation buffer keeps only points within it); source: its name, for messages.
     """
 
     origin: tuple
@@ -194,14 +200,21 @@ class Observation:
     raytrace_range: float = 3.0
     marking: bool = True
     clearing: bool = True
+    z: float = None
+    min_obstacle_height: float = 0.0
+    max_obstacle_height: float = 2.0
+    source: str = ""
 
 
 def scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max,
                         sensor_pose, inf_is_valid=False, obstacle_range=2.5,
-                        raytrace_range=3.0, marking=True, clearing=True):
+                        raytrace_range=3.0, marking=True, clearing=True, sensor_z=None,
+                        min_obstacle_height=0.0, max_obstacle_height=2.0, source=""):
     """A LaserScan's ranges [m] -> Observation in the costmap frame.
 
-    sensor_pose: (x [m], y [m], yaw [rad]) of the laser in the costmap frame. Readings
+    sensor_pose: (x [m], y [m], yaw [rad]) of the laser in the costmap frame; sensor_z:
+    its height [m] there (None: unknown); the source's height band and name are passed
+    on to the Observation (the layer applies them). Readings
     below range_min or NaN are dropped (as laser_geometry does). A no-return (+inf, or a
     finite reading >= range_max, which some drivers report as range_max + 1) is dropped
     unless inf_is_valid, in which case it becomes a clearing-only ray of length
@@ -219,7 +232,10 @@ def scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max
     pts = np.column_stack([sensor_pose[0] + length * np.cos(a), sensor_pose[1] + length * np.sin(a)])
     return Observation(origin=(float(sensor_pose[0]), float(sensor_pose[1])), points=pts,
                        mark=hit[keep], obstacle_range=obstacle_range,
-                       raytrace_range=raytrace_range, marking=marking, clearing=clearing)
+                       raytrace_range=raytrace_range, marking=marking, clearing=clearing,
+                       z=None if sensor_z is None else float(sensor_z),
+                       min_obstacle_height=min_obstacle_height,
+                       max_obstacle_height=max_obstacle_height, source=source)
 
 
 def ray_cells(x0, y0, x1, y1):
@@ -336,10 +352,16 @@ class ObstacleLayer(Layer):
 
     Parameters (costmap_2d names): observation_sources (names; each a dict with
     data_type, topic, sensor_frame, marking, clearing, obstacle_range, raytrace_range,
-    inf_is_valid, ... read by the node), obstacle_range [m] and raytrace_range [m]
-    (defaults for sources), max_obstacle_height [m] (2D: accepted, unused),
-    track_unknown_space, footprint_clearing_enabled, combination_method (0 overwrite,
-    1 maximum, other: do not write), enabled.
+    inf_is_valid, min_obstacle_height [m] (0), max_obstacle_height [m] (2), ... read by
+    the node), obstacle_range [m] and raytrace_range [m] (defaults for sources),
+    max_obstacle_height [m] (nothing higher marks), track_unknown_space (default: the
+    costmap's), footprint_clearing_enabled, combination_method (0 overwrite, 1 maximum,
+    other: do not write), enabled.
+
+    Heights, as costmap_2d's observation buffer and obstacle layer: a scan whose sensor
+    height lies outside its source's [min_obstacle_height, max_obstacle_height] neither
+    marks nor clears; one above the layer's max_obstacle_height does not mark. Either is
+    warned about once.
 
     Each update: all clearing observations first clear the cells along their rays out
     to raytrace_range; then all marking observations mark their end points lying
@@ -368,7 +390,9 @@ class ObstacleLayer(Layer):
         self.obstacle_range = _number(params, "obstacle_range", 2.5, where, 0.0)
         self.raytrace_range = _number(params, "raytrace_range", 3.0, where, 0.0)
         self.max_obstacle_height = _number(params, "max_obstacle_height", 2.0, where)
-        self.track_unknown_space = _flag(params, "track_unknown_space", False, where)
+        # None: the costmap's track_unknown_space, known at initialize (as costmap_2d).
+        self.track_unknown_space = (_flag(params, "track_unknown_space", False, where)
+                                    if "track_unknown_space" in params else None)
         self.footprint_clearing_enabled = _flag(params, "footprint_clearing_enabled", True, where)
         self.combination_method = int(_number(params, "combination_method", 1, where))
         self.sources = {}
@@ -382,6 +406,7 @@ class ObstacleLayer(Layer):
                 raise CostmapError(f"{where} source '{s}': data_type must be LaserScan, "
                                    f"PointCloud or PointCloud2, got {dt!r}")
             self.sources[s] = {
+                "name": s,
                 "topic": sp.get("topic", s), "sensor_frame": sp.get("sensor_frame", ""),
                 "data_type": dt,
                 "marking": _flag(sp, "marking", True, f"{where} source '{s}'"),
@@ -391,6 +416,8 @@ class ObstacleLayer(Layer):
                 "inf_is_valid": _flag(sp, "inf_is_valid", False, f"{where} source '{s}'"),
                 "expected_update_rate": _number(sp, "expected_update_rate", 0.0, where, 0.0),
                 "observation_persistence": _number(sp, "observation_persistence", 0.0, where, 0.0),
+                "min_obstacle_height": _number(sp, "min_obstacle_height", 0.0, where),
+                "max_obstacle_height": _number(sp, "max_obstacle_height", 2.0, where),
             }
         self.grid = None
         self._pending = []
@@ -398,6 +425,8 @@ class ObstacleLayer(Layer):
 
     def initialize(self, layered):
         super().initialize(layered)
+        if self.track_unknown_space is None:
+            self.track_unknown_space = layered.track_unknown_space
         self.match_size()
 
     def _default(self):
@@ -415,8 +444,31 @@ class ObstacleLayer(Layer):
             g.origin_x, g.origin_y = m.origin_x, m.origin_y
 
     def add_observation(self, obs):
-        """Queue an Observation for the next update_bounds."""
+        """Queue an Observation for the next update_bounds, after the height tests."""
+        if obs.z is not None:
+            what = f"obstacle layer '{self.name}' source '{obs.source}'"
+            if not obs.min_obstacle_height <= obs.z <= obs.max_obstacle_height:
+                self._warn(f"{what}: the sensor is at z = {obs.z:.3f} m, outside the source's "
+                           f"[min_obstacle_height, max_obstacle_height] = [{obs.min_obstacle_height}, "
+                           f"{obs.max_obstacle_height}] m: its scans mark and clear nothing, as in costmap_2d")
+                return
+            marks, clears = self.height_allows(obs.z, what)
+            if not (marks and obs.marking) and not (clears and obs.clearing):
+                return
+            obs = dataclasses.replace(obs, marking=obs.marking and marks, clearing=obs.clearing and clears)
         self._pending.append(obs)
+
+    def height_allows(self, z, what):
+        """(may mark, may clear) for a planar sensor at height z [m]; warns once when not."""
+        if z > self.max_obstacle_height:
+            self._warn(f"{what}: the sensor is at z = {z:.3f} m, above the layer's max_obstacle_height "
+                       f"{self.max_obstacle_height} m: its scans mark nothing, as in costmap_2d")
+            return False, True
+        return True, True
+
+    def _warn(self, message):
+        if self.layered is not None:
+            self.layered.warn_once(message)
 
     def update_bounds(self, robot_x, robot_y, robot_yaw, bounds):
         obs, self._pending = self._pending, []
@@ -576,11 +628,74 @@ class InflationLayer(Layer):
         master.data[y0:y1, x0:x1] = new
 
 
+class VoxelLayer(ObstacleLayer):
+    """costmap_2d::VoxelLayer for planar lasers: an obstacle layer with a vertical extent.
+
+    Reference: costmap_2d ``voxel_layer.cpp`` and wiki.ros.org/costmap_2d/hydro/obstacles.
+    A level 2D laser's points all lie at the sensor's height, so a column of voxels holds
+    at most one marked voxel per sensor and the 2D grid is the whole state. Kept from
+    the voxel grid: its height band [origin_z, origin_z + z_voxels * z_resolution) [m].
+    A point above it, or above max_obstacle_height, does not mark (one below origin_z
+    marks the lowest voxel, as in costmap_2d); a sensor outside it cannot raytrace, so
+    clears nothing. unknown_threshold, mark_threshold and publish_voxel_map have no
+    meaning in 2D (this layer marks a cell from one voxel, as mark_threshold 0, and
+    publishes no voxel grid): accepted and logged once as ignored.
+    """
+
+    VOXEL_PARAMS = ("origin_z", "z_resolution", "z_voxels", "unknown_threshold", "mark_threshold",
+                    "publish_voxel_map")
+    IGNORED_2D = ("unknown_threshold", "mark_threshold", "publish_voxel_map")
+    PARAMS = ObstacleLayer.PARAMS + VOXEL_PARAMS
+    MAX_Z_VOXELS = 16  # costmap_2d's voxel grid packs a column into 16 bits
+
+    def __init__(self, name, params=None):
+        params = dict(params or {})
+        where = f"voxel layer '{name}'"
+        self.origin_z = _number(params, "origin_z", 0.0, where)
+        self.z_resolution = _number(params, "z_resolution", 0.2, where)
+        if not self.z_resolution > 0:
+            raise CostmapError(f"{where}: 'z_resolution' must be > 0 [m], got {self.z_resolution}")
+        z_voxels = _number(params, "z_voxels", 10, where, 0)
+        if z_voxels != int(z_voxels) or z_voxels > self.MAX_Z_VOXELS:
+            raise CostmapError(f"{where}: 'z_voxels' must be an integer in [0, {self.MAX_Z_VOXELS}], "
+                               f"got {params.get('z_voxels')!r}")
+        self.z_voxels = int(z_voxels)
+        for key in ("unknown_threshold", "mark_threshold"):
+            _number(params, key, 0, where, 0)
+        _flag(params, "publish_voxel_map", False, where)
+        self._ignored = [k for k in self.IGNORED_2D if k in params]
+        super().__init__(name, {k: v for k, v in params.items() if k not in self.VOXEL_PARAMS})
+
+    @property
+    def top_z(self):
+        """[m] the top of the voxel grid."""
+        return self.origin_z + self.z_voxels * self.z_resolution
+
+    def initialize(self, layered):
+        super().initialize(layered)
+        for key in self._ignored:
+            self._warn(f"voxel layer '{self.name}': '{key}' has no meaning for a 2D costmap; ignored")
+
+    def height_allows(self, z, what):
+        marks, clears = super().height_allows(z, what)
+        if not self.origin_z <= z < self.top_z:
+            self._warn(f"{what}: the sensor is at z = {z:.3f} m, outside the voxel grid's "
+                       f"[origin_z, origin_z + z_voxels * z_resolution) = [{self.origin_z}, "
+                       f"{self.top_z:g}) m: its scans "
+                       f"{'clear nothing' if z < self.origin_z else 'mark and clear nothing'}, "
+                       f"as in costmap_2d")
+            clears = False
+            marks = marks and z < self.origin_z
+        return marks, clears
+
+
 LAYER_TYPES = {}
 for _t in STATIC_TYPES:
     LAYER_TYPES[_t] = StaticLayer
 for _t in OBSTACLE_TYPES:
     LAYER_TYPES[_t] = ObstacleLayer
+for _t in VOXEL_TYPES:
+    LAYER_TYPES[_t] = VoxelLayer
 for _t in INFLATION_TYPES:
     LAYER_TYPES[_t] = InflationLayer
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import yaml
 
 from .cost_values import FREE_SPACE, NO_INFORMATION
+from . import costmap_params
 from .costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
 from .dwa import DWAConfig
 from .navfn import NavfnConfig
@@ -69,7 +70,10 @@ class CostmapConfig:
     transform_tolerance: float = 0.2       # [s]
     update_frequency: float = 5.0          # [Hz]
     publish_frequency: float = 0.0         # [Hz]
-    static_map: bool = True                # pre-hydro flag, kept for the course's files
+    # Pre-Hydro flags (costmap_params): without a plugins list they choose the layers
+    # (static_map: a static layer; map_type voxel: a voxel layer); beside one, unused.
+    static_map: bool = True
+    map_type: str = "costmap"              # "voxel" or "costmap"; absent: an obstacle layer
     rolling_window: bool = False
     always_send_full_costmap: bool = False
     track_unknown_space: bool = False
@@ -83,6 +87,9 @@ class CostmapConfig:
     footprint_padding: float = 0.01        # [m]
     plugins: list = field(default_factory=list)
     layer_params: dict = field(default_factory=dict)  # {layer name: {param: value}}
+    # Not parameters: costmap_2d's warnings about this namespace (the pre-Hydro layout,
+    # keys that are ignored), for the node to log once.
+    notes: list = field(default_factory=list)
 
 
 _TYPES = {bool: (bool,), int: (int,), float: (int, float), str: (str,)}
@@ -149,8 +156,20 @@ def navfn_config(params, where="NavfnROS"):
 
 
 def costmap_config(params, where):
-    """CostmapConfig from one costmap namespace; layer namespaces go to layer_params."""
+    """CostmapConfig from one costmap namespace; layer namespaces go to layer_params.
+
+    A namespace without ``plugins`` (costmap_2d's pre-Hydro layout) is translated to
+    plugins first, and top-level layer keys are copied into their layers, as
+    costmap_2d does (costmap_params.to_plugin_layout); its warnings go to ``notes``.
+    """
     params = dict(params or {})
+    for internal in ("layer_params", "notes"):
+        if internal in params:
+            raise ParamError(f"{where}: unknown parameter '{internal}'")
+    try:
+        params, notes = costmap_params.to_plugin_layout(params)
+    except costmap_params.PreHydroError as e:
+        raise ParamError(f"{where}: {e}") from None
     plugins = params.get("plugins", [])
     if not isinstance(plugins, list):
         raise ParamError(f"{where}: 'plugins' must be a list of {{name, type}}")
@@ -164,20 +183,27 @@ def costmap_config(params, where):
     rest = {k: v for k, v in params.items() if not isinstance(v, dict)}
     cfg = from_dict(CostmapConfig, rest, where)
     cfg.layer_params = layer_params
+    cfg.notes = notes
     _positive(where, resolution=cfg.resolution, width=cfg.width, height=cfg.height)
     return cfg
 
 
-def build_costmap(cfg, where="costmap"):
-    """A LayeredCostmap from a CostmapConfig (layers from its plugins list)."""
+def build_costmap(cfg, where="costmap", log=None):
+    """A LayeredCostmap from a CostmapConfig (layers from its plugins list).
+
+    log: called once with each warning (the config's notes, then the layers' own, e.g.
+    a parameter with no meaning in 2D); default: this package's Python logger.
+    """
     try:
         fp = Footprint.from_params(cfg.footprint, cfg.robot_radius, cfg.footprint_padding)
         default = NO_INFORMATION if cfg.track_unknown_space else FREE_SPACE
         nx = max(1, int(round(cfg.width / cfg.resolution)))
         ny = max(1, int(round(cfg.height / cfg.resolution)))
         master = Costmap2D(nx, ny, cfg.resolution, cfg.origin_x, cfg.origin_y, default)
-        return LayeredCostmap.from_plugins(cfg.plugins, cfg.layer_params, master, fp,
-                                           rolling_window=cfg.rolling_window)
+        lc = LayeredCostmap(master, fp, rolling_window=cfg.rolling_window, log=log, name=where)
+        for note in cfg.notes:
+            lc.warn_once(note)
+        return lc.add_plugins(cfg.plugins, cfg.layer_params)
     except CostmapError as e:
         raise ParamError(f"{where}: {e}") from None
 

@@ -211,20 +211,61 @@ def image_to_grid(pixels, negate, occupied_thresh, free_thresh, mode):
     return value[::-1].astype(np.uint8).view(np.int8).copy()
 
 
-def load_map(yaml_path):
-    """Load a map_server YAML + image into a GridMap (see image_to_grid)."""
-    meta = read_map_yaml(yaml_path)
+def _grid_from_image(meta, where):
+    """GridMap from the checked fields of a map (read_map_yaml's dict); errors start with where."""
     pixels = cv2.imread(meta["image"], cv2.IMREAD_UNCHANGED)
     if pixels is None:
-        raise MapError(f"{yaml_path}: field 'image': cannot read {meta['image']} as an image")
+        raise MapError(f"{where}: cannot read {meta['image']} as an image")
     # OpenCV gives BGR(A): the channel order does not matter to an average, and alpha
     # stays last as map_server expects.
     try:
         data = image_to_grid(pixels, meta["negate"], meta["occupied_thresh"],
                              meta["free_thresh"], meta["mode"])
     except MapError as e:
-        raise MapError(f"{yaml_path}: field 'image': {e}") from None
+        raise MapError(f"{where}: {e}") from None
     return GridMap(data=data, resolution=meta["resolution"], origin=meta["origin"], source=meta)
+
+
+def load_map(yaml_path):
+    """Load a map_server YAML + image into a GridMap (see image_to_grid)."""
+    meta = read_map_yaml(yaml_path)
+    return _grid_from_image(meta, f"{yaml_path}: field 'image'")
+
+
+# map_server's deprecated form ``map_server IMAGE RESOLUTION`` (loadMapFromParams): the
+# fields a YAML would give, at these values (negate and the thresholds may be changed by
+# the node's private parameters of the same names).
+DEPRECATED_NEGATE = 0
+DEPRECATED_OCCUPIED_THRESH = 0.65
+DEPRECATED_FREE_THRESH = 0.196
+DEPRECATED_ORIGIN = (0.0, 0.0, 0.0)  # (x [m], y [m], yaw [rad])
+DEPRECATED_MODE = "trinary"
+
+
+def load_image_map(image_path, resolution, negate=DEPRECATED_NEGATE,
+                   occupied_thresh=DEPRECATED_OCCUPIED_THRESH, free_thresh=DEPRECATED_FREE_THRESH):
+    """Load an image with no YAML, as ``map_server IMAGE RESOLUTION`` does.
+
+    resolution [m/cell] > 0; origin (0, 0, 0), trinary mode; negate and the thresholds
+    as in a map YAML. MapError naming the argument for a missing or unreadable image, a
+    resolution that is not a positive finite number, or bad thresholds.
+    """
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, float)) \
+            or not math.isfinite(resolution) or resolution <= 0:
+        raise MapError(f"resolution must be a positive number [m/cell], got {resolution!r}")
+    if negate not in (0, 1) or isinstance(negate, bool):
+        raise MapError(f"negate must be 0 or 1, got {negate!r}")
+    for key, v in (("occupied_thresh", occupied_thresh), ("free_thresh", free_thresh)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v <= 1.0:
+            raise MapError(f"{key} must be within [0, 1], got {v!r}")
+    if free_thresh > occupied_thresh:
+        raise MapError(f"free_thresh ({free_thresh}) is above occupied_thresh ({occupied_thresh})")
+    if not os.path.isfile(image_path):
+        raise MapError(f"{image_path}: image file does not exist")
+    meta = {"image": os.path.abspath(image_path), "resolution": float(resolution),
+            "origin": DEPRECATED_ORIGIN, "negate": int(negate), "occupied_thresh": float(occupied_thresh),
+            "free_thresh": float(free_thresh), "mode": DEPRECATED_MODE, "unknown_solid_beyond": None}
+    return _grid_from_image(meta, f"{image_path}")
 
 
 def grid_to_pgm(data, occupied_threshold=SAVER_OCCUPIED_THRESHOLD, free_threshold=SAVER_FREE_THRESHOLD):
