@@ -61,6 +61,9 @@ Deliberate differences from the real planner:
   honoured, and a robot whose centre is in a forbidden but not lethal cell (inscribed, or
   unknown without allow_unknown) gets a plan out of that region (the real planner frees
   the robot's cell only, in the shared costmap). The costmap is never modified.
+- The fill around the goal (clearEndpoint) covers passable cells only, at their cell
+  cost (the real one fills obstacle cells too, at raw cost + neutral_cost), so no path
+  point can be pulled into an obstacle.
 - When the gradient descent fails the grid path is used (as the real planner once did); ForwardThenInterpolate blends from the start of the straight stretch
   (the real filter offsets the blend by that index).
 """
