@@ -20,8 +20,9 @@ beside each time. Sections:
               simulated second, peak RSS
   amcl        the amcl core: update cost (5000 particles, 61 beams), tracking on the tour,
               global localization from 20 seeded poses, kidnapping (10 runs)
-  planning    the path-planning core (no ROS): NavFn plan time on willow-full-0.05 and its
-              path against the exact grid geodesic; one DWA control cycle; closed loop
+  planning    the path-planning core (no ROS): NavFn and GlobalPlanner (A*, Dijkstra) plan
+              time on willow-full-0.05 and their paths against the exact grid geodesic;
+              one DWA control cycle; closed loop
               (global + local costmaps, NavFn, DWA, simulator) over 50 seeded goal pairs on
               the built-in world and 20 on willow-full-0.05: share reached, collisions,
               median of time to goal / (planned path length / max_vel_x)

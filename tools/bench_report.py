@@ -35,7 +35,7 @@ SECTIONS = {
     "slam_carmen": "the SLAM core offline on the CARMEN Intel and ACES logs",
     "slam_sim": "slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour",
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping",
-    "planning": "the path-planning core: NavFn, one DWA cycle, closed loop over seeded goal pairs",
+    "planning": "the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop over seeded goal pairs",
     "explore": "frontier exploration (explore.launch, real time)",
     "patrol": "the patrol: 10 rounds x 3 spots, a box dropped on the route twice (real time)",
     "multi_robot": "the multi-robot lesson and the number of robots at >= 1x real time",
@@ -168,6 +168,7 @@ def rows_amcl(res):
 
 
 NAVFN_MS, NAVFN_RATIO, DWA_MS = 100.0, 1.05, 10.0  # [ms], path / geodesic, [ms]
+GLOBAL_PLANNER_RATIO = 1.02  # GlobalPlanner A*: median path / geodesic (its time: <= NavFn's)
 CLOSED_REACHED, CLOSED_RATIO = 0.98, 1.5  # share of pairs, time / (path / max_vel_x)
 
 
@@ -186,6 +187,27 @@ def rows_planning(res):
             f"{n['length_ratio_max']:.3f} ({n['length_ratio_median']:.3f})",
             {"length_ratio_max": n["length_ratio_max"], "length_ratio_median": n["length_ratio_median"]},
             f"<= {NAVFN_RATIO}", n["length_ratio_max"] <= NAVFN_RATIO),
+    ]
+    for key, name, ratio_target in (("global_planner_astar_willow", "A*", GLOBAL_PLANNER_RATIO),
+                                    ("global_planner_dijkstra_willow", "Dijkstra", None)):
+        g = res.get(key)
+        if g is None:
+            continue
+        out.append(row(f"GlobalPlanner {name} (default parameters), the same pairs: median wall (CPU)",
+                       f"{g['median_ms']:.0f} ms ({g['cpu_median_ms']:.0f} ms; repeats {g['repeats_median_ms']}; "
+                       f"{g['cells_expanded_median']:.0f} cells expanded)",
+                       {"median_ms": g["median_ms"], "cpu_median_ms": g["cpu_median_ms"],
+                        "repeats_median_ms": g["repeats_median_ms"],
+                        "cells_expanded_median": g["cells_expanded_median"]},
+                       f"<= NavFn's {n['median_ms']:.0f} ms", g["median_ms"] <= n["median_ms"]))
+        out.append(row("... path / exact grid geodesic: median (worst); with cost_factor 0.01 (the geometry alone)",
+                       f"{g['length_ratio_median']:.3f} ({g['length_ratio_max']:.3f}); "
+                       f"{g['geometric_length_ratio_median']:.3f} ({g['geometric_length_ratio_max']:.3f})",
+                       {k: g[k] for k in ("length_ratio_median", "length_ratio_max", "geometric_length_ratio_median",
+                                          "geometric_length_ratio_max")},
+                       None if ratio_target is None else f"<= {ratio_target} (median)",
+                       ratio_target is not None and g["length_ratio_median"] <= ratio_target))
+    out += [
         row(f"DWA control cycle, {d['samples']} samples: median wall (CPU)",
             f"{d['median_ms']:.2f} ms ({d['cpu_median_ms']:.2f} ms; repeats {d['repeats_median_ms']})",
             {"median_ms": d["median_ms"], "cpu_median_ms": d["cpu_median_ms"]},

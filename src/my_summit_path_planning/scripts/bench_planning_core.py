@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""Benchmark of the path-planning core (no ROS): NavFn, one DWA cycle, closed loop.
+"""Benchmark of the path-planning core (no ROS): NavFn, GlobalPlanner, one DWA cycle, closed loop.
 
-1. NavFn on willow-full-0.05 between far-apart free cells: median plan time over
-   seeded pairs, and the path length against the exact 8-connected grid geodesic.
+1. NavFn, and global_planner/GlobalPlanner (default parameters) with Dijkstra and with
+   A*, on willow-full-0.05 between the same far-apart free cells: median plan time over
+   seeded pairs, and the path length against the exact 8-connected grid geodesic (for
+   GlobalPlanner also with cost_factor 0.01: the path geometry alone).
 2. One DWA control cycle (the course's sample counts) on a local costmap: median time.
 3. Closed loop in summit_xl_sim.sim.Simulation with ground-truth pose: global costmap
    (static + obstacle + inflation) + NavFn (replanning at planner_frequency) + rolling
@@ -29,6 +31,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from my_summit_path_planning import cost_values as cv  # noqa: E402
 from my_summit_path_planning.dwa import DWAPlanner  # noqa: E402
+from my_summit_path_planning.global_planner import GlobalPlanner, GlobalPlannerConfig  # noqa: E402
 from my_summit_path_planning.layers import scan_to_observation  # noqa: E402
 from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E402
 from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
@@ -57,40 +60,75 @@ def global_costmap(params, grid):
     return g
 
 
-def bench_navfn(params, n_pairs, seed=0):
+def willow_costmap(params):
+    """The global costmap (course parameters) of willow-full-0.05."""
     from summit_nav_common.map_io import load_map
-    grid = load_map(WILLOW)
-    g = global_costmap(params, grid)
-    cm = g.master
-    planner = NavFn(params.navfn)
+    return global_costmap(params, load_map(WILLOW)).master
+
+
+def far_pairs(cm, n_pairs, seed=0):
+    """n_pairs seeded pairs of free cells at least FAR_PAIR_DIST apart and connected:
+    [((row, col) start, (row, col) goal, exact 8-connected grid geodesic [m]), ...]."""
     rng = np.random.default_rng(seed)
     passable = cm.data < cv.INSCRIBED_INFLATED_OBSTACLE
     free = np.argwhere(cm.data == cv.FREE_SPACE)
-    planner.make_plan(cm, cm.map_to_world(free[0][1], free[0][0]),
-                      cm.map_to_world(free[0][1], free[0][0]))  # build the graph cache
-    times, cpu, ratios, lengths, geos = [], [], [], [], []
-    while len(times) < n_pairs:
+    pairs = []
+    while len(pairs) < n_pairs:
         a, b = free[rng.integers(len(free))], free[rng.integers(len(free))]
         if math.hypot(*(a - b)) * cm.resolution < FAR_PAIR_DIST:
             continue
         geo = grid_geodesic_length(passable, (a[1], a[0]), (b[1], b[0])) * cm.resolution
-        if not math.isfinite(geo):
-            continue
+        if math.isfinite(geo):
+            pairs.append((a, b, geo))
+    return pairs
+
+
+def bench_plans(planner, cm, pairs, name):
+    """Time planner.make_plan over pairs (one warm-up plan first): median wall / CPU time
+    and path length against the grid geodesic."""
+    free = np.argwhere(cm.data == cv.FREE_SPACE)
+    planner.make_plan(cm, cm.map_to_world(free[0][1], free[0][0]),
+                      cm.map_to_world(free[0][1], free[0][0]))  # caches, compiled kernels
+    times, cpu, ratios, lengths, geos = [], [], [], [], []
+    for a, b, geo in pairs:
         t0, c0 = time.perf_counter(), time.process_time()
         r = planner.make_plan(cm, cm.map_to_world(a[1], a[0]), cm.map_to_world(b[1], b[0]))
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
         if not r.ok:
-            raise RuntimeError(f"NavFn failed on a connected pair: {r.reason}")
+            raise RuntimeError(f"{name} failed on a connected pair: {r.reason}")
         lengths.append(r.length)
         geos.append(geo)
         ratios.append(r.length / geo)
-    return {"pairs": n_pairs, "map_cells": int(cm.data.size),
+    return {"pairs": len(pairs), "map_cells": int(cm.data.size),
             "median_ms": 1000 * float(np.median(times)), "max_ms": 1000 * float(np.max(times)),
             "cpu_median_ms": 1000 * float(np.median(cpu)),
             "median_path_m": float(np.median(lengths)), "median_geodesic_m": float(np.median(geos)),
             "length_ratio_median": float(np.median(ratios)),
             "length_ratio_max": float(np.max(ratios)), "length_ratio_min": float(np.min(ratios))}
+
+
+def bench_navfn(params, n_pairs, seed=0, cm=None, pairs=None):
+    cm = cm if cm is not None else willow_costmap(params)
+    pairs = pairs if pairs is not None else far_pairs(cm, n_pairs, seed)
+    return bench_plans(NavFn(params.navfn), cm, pairs, "NavFn")
+
+
+def bench_global_planner(use_dijkstra, cm, pairs):
+    """global_planner/GlobalPlanner with its default parameters (A* when not use_dijkstra),
+    plus the same plans with cost_factor 0.01 (the path geometry without the costs)."""
+    planner = GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra))
+    out = bench_plans(planner, cm, pairs, "GlobalPlanner")
+    cells = []
+    for a, b, _ in pairs:
+        planner.make_plan(cm, cm.map_to_world(a[1], a[0]), cm.map_to_world(b[1], b[0]))
+        cells.append(planner.cells_expanded)
+    out["cells_expanded_median"] = float(np.median(cells))
+    geometric = bench_plans(GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra, cost_factor=0.01)),
+                            cm, pairs, "GlobalPlanner")
+    out["geometric_length_ratio_median"] = geometric["length_ratio_median"]
+    out["geometric_length_ratio_max"] = geometric["length_ratio_max"]
+    return out
 
 
 def bench_dwa_cycle(params, n=200, seed=0):
@@ -240,7 +278,7 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=50, help="closed-loop runs on the built-in world")
     ap.add_argument("--willow-runs", type=int, default=0, help="closed-loop runs on willow-full-0.05")
     ap.add_argument("--navfn-pairs", type=int, default=12)
-    ap.add_argument("--repeats", type=int, default=1, help="repeats of the NavFn and DWA timings (median)")
+    ap.add_argument("--repeats", type=int, default=1, help="repeats of the planner and DWA timings (median)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("-v", "--verbose", action="store_true")
@@ -249,7 +287,7 @@ def main(argv=None):
                     help="print the controller state every this many simulated seconds (default 1)")
     ap.add_argument("--max-vel-x", type=float,
                     help="closed loop with this max_vel_x (and max_vel_trans) instead of the config's")
-    ap.add_argument("--skip-navfn", action="store_true", help="skip the NavFn and DWA-cycle benchmarks")
+    ap.add_argument("--skip-navfn", action="store_true", help="skip the global planner and DWA-cycle benchmarks")
     args = ap.parse_args(argv)
     params = load_move_base_params(CONFIG)
     if args.max_vel_x:
@@ -258,18 +296,32 @@ def main(argv=None):
     if not args.skip_navfn:
         # Timings: the median over each repeat, then the median of those (load on a
         # shared machine varies between repeats); lengths are the same every repeat.
-        navs = [bench_navfn(params, args.navfn_pairs, args.seed) for _ in range(max(1, args.repeats))]
-        n = dict(navs[0])
-        n["median_ms"] = float(np.median([r["median_ms"] for r in navs]))
-        n["max_ms"] = float(np.median([r["max_ms"] for r in navs]))
-        n["repeats_median_ms"] = [round(r["median_ms"], 1) for r in navs]
-        n["cpu_median_ms"] = float(np.median([r["cpu_median_ms"] for r in navs]))
-        out["navfn_willow"] = n
-        print(f"NavFn willow-full-0.05: median {n['median_ms']:.0f} ms wall, {n['cpu_median_ms']:.0f} ms CPU "
-              f"(repeats {n['repeats_median_ms']}; "
-              f"max {n['max_ms']:.0f}) over {n['pairs']} pairs; path / grid geodesic: median "
-              f"{n['length_ratio_median']:.3f} (min {n['length_ratio_min']:.3f}, max {n['length_ratio_max']:.3f}); "
-              f"median path {n['median_path_m']:.1f} m vs geodesic {n['median_geodesic_m']:.1f} m", flush=True)
+        cm = willow_costmap(params)
+        pairs = far_pairs(cm, args.navfn_pairs, args.seed)
+        repeats = max(1, args.repeats)
+        navs, dijs, astars = [], [], []
+        for _ in range(repeats):  # interleaved, so that each planner sees the same load
+            navs.append(bench_navfn(params, args.navfn_pairs, cm=cm, pairs=pairs))
+            dijs.append(bench_global_planner(True, cm, pairs))
+            astars.append(bench_global_planner(False, cm, pairs))
+        for key, runs, name in (("navfn_willow", navs, "NavFn"),
+                                ("global_planner_dijkstra_willow", dijs, "GlobalPlanner Dijkstra"),
+                                ("global_planner_astar_willow", astars, "GlobalPlanner A*")):
+            n = dict(runs[0])
+            n["median_ms"] = float(np.median([r["median_ms"] for r in runs]))
+            n["max_ms"] = float(np.median([r["max_ms"] for r in runs]))
+            n["repeats_median_ms"] = [round(r["median_ms"], 1) for r in runs]
+            n["cpu_median_ms"] = float(np.median([r["cpu_median_ms"] for r in runs]))
+            out[key] = n
+            extra = "" if "cells_expanded_median" not in n else \
+                (f"; {n['cells_expanded_median']:.0f} cells expanded (median); with cost_factor 0.01: path / "
+                 f"geodesic median {n['geometric_length_ratio_median']:.3f}, max {n['geometric_length_ratio_max']:.3f}")
+            print(f"{name} willow-full-0.05: median {n['median_ms']:.0f} ms wall, {n['cpu_median_ms']:.0f} ms CPU "
+                  f"(repeats {n['repeats_median_ms']}; "
+                  f"max {n['max_ms']:.0f}) over {n['pairs']} pairs; path / grid geodesic: median "
+                  f"{n['length_ratio_median']:.3f} (min {n['length_ratio_min']:.3f}, max {n['length_ratio_max']:.3f}); "
+                  f"median path {n['median_path_m']:.1f} m vs geodesic {n['median_geodesic_m']:.1f} m{extra}",
+                  flush=True)
         dwas = [bench_dwa_cycle(params) for _ in range(max(1, args.repeats))]
         d = dict(dwas[0])
         d["median_ms"] = float(np.median([r["median_ms"] for r in dwas]))
