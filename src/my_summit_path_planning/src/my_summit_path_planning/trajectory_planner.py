@@ -270,28 +270,30 @@ def world_to_cells(costmap, x, y):
     return mx, my, inside
 
 
-def bresenham(x0, y0, x1, y1):
+def bresenham(x0, y0, x1, y1, repeat_end=False):
     """Cells of Bresenham lines from (x0, y0) to (x1, y1), ends included (base_local_planner's
     LineIterator), for arrays of lines at once: (xs, ys, valid) each (..., L), L the
-    longest line's cell count; valid marks the cells each line really has.
+    longest line's cell count; valid marks the cells each line really has (with
+    repeat_end, a shorter line repeats its end cell instead and valid is all True).
 
     Closed form of the iterator: after i steps the major axis has moved i cells and the
     minor one floor((den // 2 + i * numadd) / den).
     """
-    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64) for v in (x0, y0, x1, y1))
+    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int32) for v in (x0, y0, x1, y1))
     dx, dy = np.abs(x1 - x0), np.abs(y1 - y0)
-    sx, sy = np.where(x1 >= x0, 1, -1), np.where(y1 >= y0, 1, -1)
-    xmajor = dx >= dy
-    den = np.where(xmajor, dx, dy)
-    numadd = np.where(xmajor, dy, dx)
-    n_pix = den + 1
-    i = np.arange(int(n_pix.max()) if n_pix.size else 1)
-    i = i.reshape((1,) * den.ndim + (-1,))
-    den_, numadd_ = den[..., None], numadd[..., None]
-    minor = (den_ // 2 + i * numadd_) // np.maximum(den_, 1)
-    xs = x0[..., None] + sx[..., None] * np.where(xmajor[..., None], i, minor)
-    ys = y0[..., None] + sy[..., None] * np.where(xmajor[..., None], minor, i)
-    return xs, ys, i < n_pix[..., None]
+    xmajor = (dx >= dy)[..., None]
+    den = np.maximum(dx, dy)[..., None]
+    numadd = np.minimum(dx, dy)[..., None]
+    i = np.arange(int(den.max()) + 1 if den.size else 1, dtype=np.int32)
+    valid = i <= den
+    if repeat_end:
+        i = np.minimum(i, den)
+        valid = np.ones(i.shape, dtype=bool)
+    minor = (den // 2 + i * numadd) // np.maximum(den, 1)
+    sx, sy = np.sign(x1 - x0)[..., None], np.sign(y1 - y0)[..., None]
+    xs = x0[..., None] + sx * np.where(xmajor, i, minor)
+    ys = y0[..., None] + sy * np.where(xmajor, minor, i)
+    return xs, ys, valid
 
 
 def line_cells_reference(x0, y0, x1, y1):
@@ -334,12 +336,13 @@ def footprint_costs(costmap, polygon, x, y, th):
     vx, vy, vin = world_to_cells(costmap, px, py)
     _, _, cin = world_to_cells(costmap, x, y)
     on_map = cin & vin.all(axis=1)
-    xs, ys, valid = bresenham(vx, vy, np.roll(vx, -1, axis=1), np.roll(vy, -1, axis=1))  # (M, K, L)
-    h, w = costmap.data.shape
-    cells = costmap.data[np.clip(ys, 0, h - 1), np.clip(xs, 0, w - 1)]
-    blocked = ((cells == LETHAL_OBSTACLE) | (cells == NO_INFORMATION)) & valid
-    worst = np.where(valid, cells, 0).max(axis=(1, 2)).astype(np.float64)
-    return np.where(~on_map, OFF_MAP, np.where(blocked.any(axis=(1, 2)), COLLIDES, worst))
+    vx[~on_map], vy[~on_map] = 0, 0   # off the map: OFF_MAP whatever its cells
+    # Lines between vertices on the map stay on it; a short line repeats its end cell.
+    xs, ys, _ = bresenham(vx, vy, np.roll(vx, -1, axis=1), np.roll(vy, -1, axis=1), repeat_end=True)
+    cells = costmap.data.ravel()[ys * costmap.size_x + xs].reshape(len(x), -1)   # (M, K x L)
+    blocked = ((cells == LETHAL_OBSTACLE) | (cells == NO_INFORMATION)).any(axis=1)
+    worst = cells.max(axis=1).astype(np.float64)
+    return np.where(~on_map, OFF_MAP, np.where(blocked, COLLIDES, worst))
 
 
 def footprint_cost_reference(costmap, polygon, x, y, th):
@@ -445,10 +448,13 @@ def map_grid(costmap, targets, within_robot):
     dist[front] = 0.0
     level = 0.0
     offsets = np.array([-1, 1, -w2, w2])
+    slot = np.zeros((h + 2) * w2, dtype=np.int64)   # scratch: drops repeated neighbours without a sort
     while front.size:
         level += 1.0
         nb = (front[:, None] + offsets).ravel()
-        nb = np.unique(nb[~marked[nb]])
+        nb = nb[~marked[nb]]
+        slot[nb] = np.arange(nb.size)
+        nb = nb[slot[nb] == np.arange(nb.size)]
         marked[nb] = True
         hit = blocked[nb]
         dist[nb[hit]] = obstacle
