@@ -311,7 +311,8 @@ def test_deprecated_names_map_and_warn(fp):
     assert tp.BACKUP_VEL_WARNING in p.warnings and tp.METER_SCORING_FALSE in p.warnings
     assert any(w.startswith("You are using acc_limit_x where you should be using acc_lim_x") for w in p.warnings)
     assert p.ignored == ["some_unknown"]
-    assert {"acc_lim_th", "backup_vel", "world_model", "point_grid", "acc_limit_th"} <= tp.TrajectoryPlanner.KNOWN_PARAMS
+    known = tp.TrajectoryPlanner.KNOWN_PARAMS
+    assert {"acc_lim_th", "backup_vel", "world_model", "point_grid", "acc_limit_th"} <= known
 
 
 def test_controller_frequency_in_the_namespace_wins():
@@ -326,7 +327,8 @@ def test_controller_frequency_in_the_namespace_wins():
 
 
 @pytest.mark.parametrize("key, value, expected", [
-    ("max_vel_x", "fast", "float"), ("vx_samples", 2.5, "int"), ("dwa", 1, "bool"), ("holonomic_robot", "yes", "bool"),
+    ("max_vel_x", "fast", "float"), ("vx_samples", 2.5, "int"), ("dwa", 1, "bool"),
+    ("holonomic_robot", "yes", "bool"),
     ("y_vels", [0.1, "a"], "list of floats"), ("gdist_scale", None, "float"), ("sim_time", 0.0, "> 0")])
 def test_bad_values_name_where_and_key(fp, key, value, expected):
     with pytest.raises(ParamError) as e:
@@ -337,3 +339,28 @@ def test_bad_values_name_where_and_key(fp, key, value, expected):
 def test_world_model_other_than_costmap_is_an_error(fp):
     with pytest.raises(ParamError, match="world_model"):
         tp.TrajectoryPlanner.from_params({"world_model": "freespace"}, fp)
+
+
+# -- closed loop ----------------------------------------------------------------------------------------
+def _bench_module():
+    import importlib.util
+    import os
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts", "bench_planning_core.py")
+    spec = importlib.util.spec_from_file_location("bench_planning_core", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.parametrize("kind", ["trajectory", "trajectory-dwa"])
+def test_closed_loop_reaches_goals_without_collisions(kind):
+    """NavFn + this planner driving the simulator core (no ROS) on the built-in world
+    between two seeded start/goal pairs, with the course lesson's parameters: both
+    goals reached within tolerance, no collision."""
+    bench = _bench_module()
+    params = bench.load_move_base_params(bench.CONFIG)
+    c = bench.closed_loop(params, bench.BUILTIN, 2, seed=0, planner_kind=kind)
+    assert c["runs"] == 2 and c["local_planner"] == kind
+    assert c["collisions"] == 0
+    assert c["reached_share"] == 1.0, [(r["xy_error_m"], r["yaw_error_rad"], r["time_s"])
+                                       for r in c["runs_detail"]]

@@ -507,7 +507,8 @@ def map_grids(costmap, plan, polygon, pose, grid_fn=map_grid):
     path = grid_fn(costmap, (mx, my), within)
     goal_cell = (mx[-1:], my[-1:])
     goal = grid_fn(costmap, goal_cell, within)
-    return Grids(path=path, goal=goal, plan=np.asarray(plan, dtype=np.float64), obstacle_cost=float(costmap.data.size))
+    return Grids(path=path, goal=goal, plan=np.asarray(plan, dtype=np.float64),
+                 obstacle_cost=float(costmap.data.size))
 
 
 # -- 4. rollouts ----------------------------------------------------------------------------
@@ -654,7 +655,9 @@ def generate_trajectory_reference(cfg, pose, vel, sample, costmap, grids, polygo
                 if path_d >= grids.obstacle_cost or goal_d >= grids.obstacle_cost:
                     return NO_WAY, np.array(pts).reshape(-1, 3)
         pts.append((x, y, th))
-        vx, vy, vth = toward(sx, vx, cfg.acc_lim_x), toward(sy, vy, cfg.acc_lim_y), toward(sth, vth, cfg.acc_lim_theta)
+        vx = toward(sx, vx, cfg.acc_lim_x)
+        vy = toward(sy, vy, cfg.acc_lim_y)
+        vth = toward(sth, vth, cfg.acc_lim_theta)
         c, s = np.cos(th), np.sin(th)
         x = x + (vx * c - vy * s) * dt
         y = y + (vx * s + vy * c) * dt
@@ -847,8 +850,8 @@ class TrajectoryPlanner:
         stopped = abs(vth) <= STOPPED_VEL and abs(vx) <= STOPPED_VEL and abs(vy) <= STOPPED_VEL
         if not self.rotating_to_goal and not stopped:
             # stopWithAccLimits: brake as hard as allowed, if that is legal
-            cmd = (sign(vx) * max(0.0, abs(vx) - cfg.acc_lim_x * dt), sign(vy) * max(0.0, abs(vy) - cfg.acc_lim_y * dt),
-                   sign(vth) * max(0.0, abs(vth) - cfg.acc_lim_theta * dt))
+            cmd = tuple(sign(v) * max(0.0, abs(v) - a * dt)
+                        for v, a in zip(velocity, (cfg.acc_lim_x, cfg.acc_lim_y, cfg.acc_lim_theta)))
             if self._legal(pose, velocity, cmd, costmap):
                 return DWAResult(cmd=cmd, mode="stop")
             return DWAResult(ok=False, reason="cannot brake at the goal: the braking trajectory collides",
@@ -908,9 +911,10 @@ class TrajectoryPlanner:
                 forward.append((vx, 0.0, 0.0))
                 forward.extend((vx, 0.0, th) for th in ths[:-1])
             if cfg.holonomic_robot:
-                forward += [(HOLONOMIC_DIAGONAL, HOLONOMIC_DIAGONAL, 0.0), (HOLONOMIC_DIAGONAL, -HOLONOMIC_DIAGONAL, 0.0)]
-        in_place = [(0.0, 0.0, max(th, cfg.min_in_place_vel_theta) if th > 0 else min(th, -cfg.min_in_place_vel_theta))
-                    for th in ths]
+                forward += [(HOLONOMIC_DIAGONAL, HOLONOMIC_DIAGONAL, 0.0),
+                            (HOLONOMIC_DIAGONAL, -HOLONOMIC_DIAGONAL, 0.0)]
+        slowest = cfg.min_in_place_vel_theta   # the base cannot turn slower in place
+        in_place = [(0.0, 0.0, max(th, slowest) if th > 0 else min(th, -slowest)) for th in ths]
         samples = np.array(forward + in_place, dtype=np.float64).reshape(-1, 3)
         r = self._rollout(cfg, pose, velocity, samples, costmap, self.grids, self.polygon, biases)
         n_f = len(forward)
@@ -963,9 +967,10 @@ class TrajectoryPlanner:
             self.escaping = True
         self._maybe_end_escape(pose)
         if rb.cost[0] == NO_WAY:
-            return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the footprint "
-                             "off lethal and unknown cells with a clear way to the plan, and backing up at escape_vel "
-                             "leads where no way to the plan is clear", n_valid=0, n_samples=n_samples, mode="escape")
+            return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
+                             "footprint off lethal and unknown cells with a clear way to the plan, and backing up "
+                             "at escape_vel leads where no way to the plan is clear",
+                             n_valid=0, n_samples=n_samples, mode="escape")
         cost = 1.0 if rb.cost[0] == COLLIDES else float(rb.cost[0])
         return DWAResult(cmd=(float(cfg.escape_vel), 0.0, 0.0), trajectory=rb.points(0), n_valid=n_valid,
                          n_samples=n_samples, cost=cost, mode="escape")
