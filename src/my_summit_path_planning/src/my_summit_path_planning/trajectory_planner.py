@@ -44,8 +44,9 @@ configures it. In the order one control cycle runs:
    whose heading_lookahead point is nearest the goal and not the direction the stuck
    flags forbid; then strafes; then, with nothing legal, back up at escape_vel and enter
    escape mode (no forward samples until the robot has moved escape_reset_dist or
-   turned escape_reset_theta). The stuck flags (a turn in place reversed before moving
-   oscillation_reset_dist) keep the robot from rocking left-right on the spot.
+   turned escape_reset_theta). The stuck flags (set when the robot has turned, or
+   strafed, the same way on two cycles without moving oscillation_reset_dist) forbid
+   the other way, so it does not rock left-right on the spot.
 
 Goal (TrajectoryPlannerROS::computeVelocityCommands): within xy_goal_tolerance (latched
 with latch_xy_goal_tolerance) the robot brakes at acc_lim_* (stopWithAccLimits) until
@@ -58,6 +59,17 @@ Backing up in escape mode is commanded even when its trajectory meets an obstacl
 (only a trajectory with no way to the plan, cost -2, is refused), as in the real
 planner: the outline check fails for every sample, the backing one too, as soon as
 the robot's current outline touches a lethal cell.
+
+Where this differs from the real node: the goal is the plan's last point (the real node
+takes the last point of the windowed plan: the same whenever the goal is in the local
+costmap); at the goal only the distance grids are rebuilt (the real node runs a whole
+sampling cycle there too, for its side effects); a robot with no plan point within 1 m
+gets no command but keeps its plan (the real prunePlan erases the windowed points).
+Defaults are the wiki's (the real node's dynamic_reconfigure defaults differ, e.g.
+sim_time 1.7, vx_samples 20); acc_lim_th and max_rotational_vel are mapped to
+acc_lim_theta and max_vel_theta / min_vel_theta with nav_core's deprecation warning
+(Noetic's node reads the first not at all and lets dynamic_reconfigure override the
+second).
 
 Everything is computed for all samples at once (``rollout``; the footprint outline of
 every simulated pose in one vectorized Bresenham pass; the wavefront a frontier at a
