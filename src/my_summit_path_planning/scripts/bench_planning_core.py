@@ -10,11 +10,13 @@
    (static + obstacle + inflation) + NavFn (replanning at planner_frequency) + rolling
    local costmap from the laser + DWA, between seeded random free pose pairs; reports
    the share reached within tolerance, collisions, and the median of
-   time-to-goal / (planned path length / max_vel_x).
+   time-to-goal / (planned path length / max_vel_x). --local-planner trajectory (or
+   trajectory-dwa) drives with base_local_planner's TrajectoryPlannerROS instead of DWA,
+   configured as the course's navigation_stage lesson (TRAJECTORY_PARAMS).
 
 Parameters come from the package's config/*.yaml. Usage:
   bench_planning_core.py [--runs 50] [--willow-runs 20] [--repeats 3] [--json PATH]
-                         [--max-vel-x 1.5]
+                         [--max-vel-x 1.5] [--local-planner dwa|trajectory|trajectory-dwa]
 """
 import argparse
 import json
@@ -36,6 +38,7 @@ from my_summit_path_planning.layers import scan_to_observation  # noqa: E402
 from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E402
 from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
 from my_summit_path_planning.recovery import clear_costmap_layers  # noqa: E402
+from my_summit_path_planning.trajectory_planner import TrajectoryPlanner  # noqa: E402
 
 CONFIG = os.path.join(HERE, "..", "config")
 WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
@@ -47,6 +50,27 @@ MIN_PAIR_DIST = 2.0       # [m] closed-loop start-goal distance at least
 FAR_PAIR_DIST = 25.0      # [m] NavFn benchmark pairs at least this far apart
 TIME_LIMIT_FACTOR = 6.0   # a run fails after this x optimal time ...
 TIME_LIMIT_MIN = 40.0     # ... but never before this [s] of simulated time
+# TrajectoryPlannerROS as navigation_tutorials' navigation_stage/move_base_config/
+# base_local_planner_params.yaml sets it (the course's multi-robot lesson), deprecated
+# names and all, but holonomic_robot false: the simulated Summit XL drives as a diff
+# drive unless told otherwise. dwa comes from --local-planner.
+TRAJECTORY_PARAMS = {
+    "acc_lim_th": 3.2, "acc_lim_x": 2.5, "acc_lim_y": 2.5, "max_vel_x": 0.65, "min_vel_x": 0.1,
+    "max_rotational_vel": 1.0, "min_in_place_rotational_vel": 0.4, "backup_vel": -0.1,
+    "holonomic_robot": False, "y_vels": [-0.3, -0.1, 0.1, -0.3], "xy_goal_tolerance": 0.1,
+    "yaw_goal_tolerance": 0.05, "sim_time": 1.7, "sim_granularity": 0.025, "vx_samples": 3,
+    "vtheta_samples": 20, "goal_distance_bias": 0.8, "path_distance_bias": 0.6, "occdist_scale": 0.01,
+    "heading_lookahead": 0.325, "oscillation_reset_dist": 0.05, "prune_plan": True}
+LOCAL_PLANNERS = ("dwa", "trajectory", "trajectory-dwa")
+
+
+def local_planner(kind, params, footprint):
+    """The closed loop's local planner: DWAPlanner from config/, or TrajectoryPlanner
+    (TRAJECTORY_PARAMS, dwa: false for 'trajectory', true for 'trajectory-dwa')."""
+    if kind == "dwa":
+        return DWAPlanner(params.dwa, footprint)
+    return TrajectoryPlanner.from_params(dict(TRAJECTORY_PARAMS, dwa=kind == "trajectory-dwa"), footprint,
+                                         controller_frequency=params.move_base.controller_frequency)
 
 
 def peak_rss_mb():
@@ -157,9 +181,10 @@ def bench_dwa_cycle(params, n=200, seed=0):
             "p90_ms": 1000 * float(np.percentile(times, 90))}
 
 
-def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, trace=False):
+def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, trace=False, planner_kind="dwa"):
     """only: run numbers (1-based) to simulate, the others are drawn but skipped (to
-    replay a failure); trace: print the controller's state every trace [s] of simulated time."""
+    replay a failure); trace: print the controller's state every trace [s] of simulated time;
+    planner_kind: one of LOCAL_PLANNERS."""
     from summit_xl_sim.sim import Simulation
     from summit_xl_sim.world import World, WorldError
     world = World.from_yaml(world_yaml)
@@ -199,7 +224,8 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
         loc = build_costmap(params.local_costmap, "local_costmap")
         g_obs = g.layer("obstacle_layer")
         g_obs.reset()
-        dwa = DWAPlanner(cfg, loc.footprint)
+        dwa = local_planner(planner_kind, params, loc.footprint)
+        cfg = dwa.config
         dwa.set_plan(first.path, gyaw)
         las = st.laser
         optimal = first.length / cfg.max_vel_x
@@ -266,7 +292,8 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
                   f"{ {k: round(v, 1) for k, v in modes.items()} } moving at {t_moving}", flush=True)
     runs = [r for r in runs if r is not None]
     reached = [r for r in runs if r["reached"]]
-    return {"world": world_yaml, "runs": len(runs), "reached_share": len(reached) / max(1, len(runs)),
+    return {"world": world_yaml, "local_planner": planner_kind, "runs": len(runs),
+            "reached_share": len(reached) / max(1, len(runs)),
             "collisions": int(sum(r["collisions"] for r in runs)),
             # Over every run: a run that failed counts with the time it was given up at.
             "ratio_median": float(np.median([r["ratio"] for r in runs])) if runs else None,
@@ -288,6 +315,9 @@ def main(argv=None):
     ap.add_argument("--max-vel-x", type=float,
                     help="closed loop with this max_vel_x (and max_vel_trans) instead of the config's")
     ap.add_argument("--skip-navfn", action="store_true", help="skip the global planner and DWA-cycle benchmarks")
+    ap.add_argument("--local-planner", choices=LOCAL_PLANNERS, default="dwa",
+                    help="the closed loop's local planner (trajectory: base_local_planner's Trajectory "
+                         "Rollout, trajectory-dwa: the same with dwa: true)")
     args = ap.parse_args(argv)
     params = load_move_base_params(CONFIG)
     if args.max_vel_x:
@@ -337,10 +367,13 @@ def main(argv=None):
         if n_runs <= 0:
             continue
         t0 = time.time()
-        c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace)
+        c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace, args.local_planner)
         c["wall_s"] = time.time() - t0
+        if args.local_planner != "dwa":
+            key += "_" + args.local_planner.replace("-", "_")
         out[key] = c
-        print(f"closed loop {os.path.basename(path)}: {c['reached_share'] * 100:.0f}% of {c['runs']} reached, "
+        print(f"closed loop {os.path.basename(path)} ({args.local_planner}): "
+              f"{c['reached_share'] * 100:.0f}% of {c['runs']} reached, "
               f"{c['collisions']} collisions, time/(plan/max_vel_x) median "
               f"{c['ratio_median'] if c['ratio_median'] is None else round(c['ratio_median'], 2)} "
               f"({c['wall_s']:.0f} s wall)", flush=True)

@@ -1,0 +1,1049 @@
+"""base_local_planner's TrajectoryPlannerROS: Trajectory Rollout and its DWA mode.
+
+Reference: Gerkey & Konolige 2008, "Planning and Control in Unstructured Terrain"
+(Trajectory Rollout); Fox, Burgard & Thrun 1997 (the Dynamic Window Approach); ROS 1
+``base_local_planner`` (trajectory_planner.cpp, trajectory_planner_ros.cpp, map_grid.cpp,
+costmap_model.cpp, goal_functions.cpp) and wiki.ros.org/base_local_planner for the
+parameters. move_base's default local planner; the course's navigation_stage lesson
+configures it. In the order one control cycle runs:
+
+1. ``window_plan``: the plan points within half the local costmap's size of the robot
+   (transformGlobalPlan), the points behind the first one within 1 m of the robot
+   dropped for good (prunePlan, with prune_plan).
+2. ``map_grids``: two distance grids over the local costmap, in cells, by a 4-connected
+   breadth-first wavefront (MapGrid): path distance from every plan cell, goal distance
+   from the local goal (where the plan leaves the costmap, or its end). A lethal,
+   inscribed or unknown cell stops the wave and holds obstacle_cost (the number of
+   cells); a cell the wave never reaches holds one more. Cells under the robot's
+   current footprint never stop the wave.
+3. ``velocity samples``: vx over [min_vel_x, max_vel_x] and vtheta over
+   [min_vel_theta, max_vel_theta] clipped to what acc_lim_* reach within sim_time
+   (Trajectory Rollout, dwa: false) or within one sim_period = 1/controller_frequency
+   (dwa: true); max_vel_x also capped to (distance to the plan's end) / sim_time.
+   Samples come in groups: forward (vx_samples x [0, vtheta_samples - 1 rates], plus
+   (0.1, +-0.1, 0) strafing diagonals for a holonomic robot), rotating in place
+   (vtheta_samples rates, none slower than min_in_place_vel_theta), then only if none
+   of those is legal sideways (y_vels, holonomic) and last backing up at escape_vel.
+4. ``rollout``: every sample simulated for sim_time from the current pose and velocity,
+   the velocity ramping to the sample within acc_lim_* (base_local_planner's
+   computeNewVelocity), in steps of sim_granularity [m] / angular_sim_granularity
+   (vtheta / angular_sim_granularity steps, not x sim_time, as the real planner). At each
+   point, the current pose first: the centre must lie on the costmap, the footprint
+   outline (its edges rasterized with Bresenham's line, CostmapModel) must not touch a
+   lethal or unknown cell (cost -1), and the path and goal distances must be below
+   obstacle_cost (cost -2: no clear way to the plan). Cost of a legal trajectory:
+   path_distance_bias * path_dist + goal_distance_bias * goal_dist
+   + occdist_scale * max(footprint outline cost, centre cell cost) over its points,
+   path_dist and goal_dist being those of its last point [cells; x resolution with
+   meter_scoring]. heading_scoring scores path and goal distance at the point
+   heading_scoring_timestep into the trajectory, plus 0.3 x the angle to the farthest
+   plan point in line of sight; simple_attractor scores the squared distance to the
+   plan's end instead.
+5. ``choice``: the cheapest legal forward sample (earliest on ties); a rotation in place
+   replaces it when it costs no more (or the best strafes), preferring the rotation
+   whose heading_lookahead point is nearest the goal and not the direction the stuck
+   flags forbid; then strafes; then, with nothing legal, back up at escape_vel and enter
+   escape mode (no forward samples until the robot has moved escape_reset_dist or
+   turned escape_reset_theta). The stuck flags (set when the robot has turned, or
+   strafed, the same way on two cycles without moving oscillation_reset_dist) forbid
+   the other way, so it does not rock left-right on the spot.
+
+Goal (TrajectoryPlannerROS::computeVelocityCommands): within xy_goal_tolerance (latched
+with latch_xy_goal_tolerance) the robot brakes at acc_lim_* (stopWithAccLimits) until
+stopped (|v| <= 0.01), then rotates in place toward the goal heading at
+min(max_vel_theta, max(min_in_place_vel_theta, |error|)) within the acceleration
+window and sqrt(2 acc_lim_theta |error|) (rotateToGoal), every command checked as a
+trajectory; the goal is reached once the heading is within yaw_goal_tolerance.
+
+Backing up in escape mode is commanded even when its trajectory meets an obstacle
+(only a trajectory with no way to the plan, cost -2, is refused), as in the real
+planner: the outline check fails for every sample, the backing one too, as soon as
+the robot's current outline touches a lethal cell.
+
+Where this differs from the real node: the goal is the plan's last point (the real node
+takes the last point of the windowed plan: the same whenever the goal is in the local
+costmap); at the goal only the distance grids are rebuilt (the real node runs a whole
+sampling cycle there too, for its side effects); a robot with no plan point within 1 m
+gets no command but keeps its plan (the real prunePlan erases the windowed points).
+Defaults are the wiki's (the real node's dynamic_reconfigure defaults differ, e.g.
+sim_time 1.7, vx_samples 20); acc_lim_th and max_rotational_vel are mapped to
+acc_lim_theta and max_vel_theta / min_vel_theta with nav_core's deprecation warning
+(Noetic's node reads the first not at all and lets dynamic_reconfigure override the
+second).
+
+Everything is computed for all samples at once (``rollout``; the footprint outline of
+every simulated pose in one vectorized Bresenham pass; the wavefront a frontier at a
+time); ``generate_trajectory_reference`` and ``map_grid_reference`` are the literal
+per-trajectory loop and queue, kept as the test oracle (TrajectoryPlanner(...,
+reference=True) runs on them).
+"""
+import dataclasses
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+from .dwa import DWAResult
+from .params import ParamError
+from summit_nav_common.geometry import wrap_angle
+
+PRUNE_DIST = 1.0            # [m] prunePlan drops plan points until one this near the robot
+STOPPED_VEL = 1e-2          # [m/s, rad/s] TrajectoryPlannerROS: below this the robot counts as stopped
+HEADING_WEIGHT = 0.3        # heading_scoring: weight of the heading difference [1/rad]
+HOLONOMIC_DIAGONAL = 0.1    # [m/s] vx and |vy| of the two strafing-forward samples
+DEFAULT_SIM_PERIOD = 0.05   # [s] when controller_frequency is not positive (20 Hz)
+OFF_MAP = -3.0              # footprint cost: a vertex or the centre off the costmap
+COLLIDES = -1.0             # trajectory cost: the footprint met a lethal/unknown cell or left the map
+NO_WAY = -2.0               # trajectory cost: a point with no clear path to the plan or goal
+
+
+@dataclass
+class TrajectoryPlannerConfig:
+    """TrajectoryPlannerROS's parameters (the real names, defaults and units)."""
+
+    acc_lim_x: float = 2.5                 # [m/s^2]
+    acc_lim_y: float = 2.5                 # [m/s^2]
+    acc_lim_theta: float = 3.2             # [rad/s^2]
+    max_vel_x: float = 0.5                 # [m/s]
+    min_vel_x: float = 0.1                 # [m/s] enough to overcome the base's friction
+    max_vel_theta: float = 1.0             # [rad/s]
+    min_vel_theta: float = -1.0            # [rad/s] (negative: turning right)
+    min_in_place_vel_theta: float = 0.4    # [rad/s] slowest turn in place
+    escape_vel: float = -0.1               # [m/s] backing-up speed in escape mode (negative)
+    holonomic_robot: bool = True           # sample strafing (vy) trajectories
+    y_vels: tuple = (-0.3, -0.1, 0.1, 0.3)  # [m/s] strafing speeds tried when nothing else is legal
+    sim_time: float = 1.0                  # [s] forward-simulation horizon
+    sim_granularity: float = 0.025         # [m] step between simulated points
+    angular_sim_granularity: float = None  # [rad] step for rotations; None: sim_granularity
+    vx_samples: int = 3
+    vtheta_samples: int = 20
+    controller_frequency: float = 20.0     # [Hz] sim_period = 1 / controller_frequency (dwa)
+    path_distance_bias: float = 0.6        # weight of the distance to the path [1/cell or 1/m]
+    goal_distance_bias: float = 0.8        # weight of the distance to the local goal
+    occdist_scale: float = 0.01            # weight of the highest cell cost under the footprint
+    meter_scoring: bool = False            # distances in metres (else cells)
+    heading_lookahead: float = 0.325       # [m] look-ahead of the in-place rotations' scoring
+    heading_scoring: bool = False          # score the heading instead of the end point's distance
+    heading_scoring_timestep: float = 0.8  # [s] where along the trajectory heading is scored
+    oscillation_reset_dist: float = 0.05   # [m] travel that clears the stuck flags
+    escape_reset_dist: float = 0.10        # [m] travel that ends escape mode
+    escape_reset_theta: float = math.pi / 4  # [rad] turn that ends escape mode
+    prune_plan: bool = True                # drop plan points as the robot passes them
+    xy_goal_tolerance: float = 0.1         # [m]
+    yaw_goal_tolerance: float = 0.05       # [rad]
+    latch_xy_goal_tolerance: bool = False  # once within xy tolerance, only rotate
+    dwa: bool = False                      # sample the window of one sim_period (else sim_time)
+    simple_attractor: bool = False         # score the squared distance to the plan's end only
+    stop_time_buffer: float = 0.2          # [s] read by the real node, unused by its planner
+
+    @property
+    def sim_period(self):
+        """[s] one control period (a non-positive controller_frequency counts as 20 Hz)."""
+        return 1.0 / self.controller_frequency if self.controller_frequency > 0 else DEFAULT_SIM_PERIOD
+
+    @property
+    def angular_granularity(self):
+        """[rad] angular_sim_granularity, defaulting to sim_granularity."""
+        return self.sim_granularity if self.angular_sim_granularity is None else self.angular_sim_granularity
+
+
+# Deprecated name -> current name; the real node's warning (nav_core's
+# loadParameterWithDeprecation, or its own text for backup_vel).
+DEPRECATED = {
+    "pdist_scale": "path_distance_bias",
+    "gdist_scale": "goal_distance_bias",
+    "min_in_place_rotational_vel": "min_in_place_vel_theta",
+    "max_rotational_vel": "max_vel_theta",
+    "acc_lim_th": "acc_lim_theta",
+    "backup_vel": "escape_vel",
+}
+BACKUP_VEL_WARNING = ("The backup_vel parameter has been deprecated in favor of the escape_vel parameter. "
+                      "To switch, just change the parameter name in your configuration files.")
+# Names the real node reads only to complain about (the wiki used to spell them so).
+MISSPELLED = {"acc_limit_x": "acc_lim_x", "acc_limit_y": "acc_lim_y", "acc_limit_th": "acc_lim_th"}
+# Read by the real node but without effect here (logged as ignored by the node).
+ACCEPTED_UNUSED = ("world_model", "point_grid", "restore_defaults", "publish_cost_grid_pc")
+METER_SCORING_UNSET = ("Trajectory Rollout planner initialized with param meter_scoring not set. Set it to "
+                       "true to make your settings robust against changes of costmap resolution.")
+METER_SCORING_FALSE = ("Trajectory Rollout planner initialized with param meter_scoring set to false. Set it "
+                       "to true to make your settings robust against changes of costmap resolution.")
+
+_FIELDS = {f.name: f for f in dataclasses.fields(TrajectoryPlannerConfig)}
+KNOWN_PARAMS = frozenset(_FIELDS) | frozenset(DEPRECATED) | frozenset(MISSPELLED) | frozenset(ACCEPTED_UNUSED)
+
+
+def _typed(where, key, value, kind):
+    """value checked against kind ('float', 'int', 'bool', 'y_vels'); ParamError naming where/key."""
+    if kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ParamError(f"{where}/{key}: expected a finite float, got {value!r}")
+        return float(value)
+    if kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ParamError(f"{where}/{key}: expected an int, got {value!r}")
+        return value
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ParamError(f"{where}/{key}: expected a bool, got {value!r}")
+        return value
+    # y_vels: a list of numbers, or the real node's string form "[-0.3, -0.1, 0.1, 0.3]"
+    items = value
+    if isinstance(value, str):
+        items = [t for t in value.replace("[", " ").replace("]", " ").replace(",", " ").split()]
+        try:
+            items = [float(t) for t in items]
+        except ValueError:
+            raise ParamError(f"{where}/{key}: expected a list of floats, got {value!r}") from None
+    if not isinstance(items, (list, tuple)) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in items):
+        raise ParamError(f"{where}/{key}: expected a list of floats, got {value!r}")
+    return tuple(float(v) for v in items)
+
+
+_KIND = {name: ("y_vels" if name == "y_vels" else
+                "float" if name == "angular_sim_granularity" else f.type if isinstance(f.type, str)
+                else f.type.__name__) for name, f in _FIELDS.items()}
+
+
+def trajectory_planner_config(params, where="TrajectoryPlannerROS", controller_frequency=None):
+    """(TrajectoryPlannerConfig, warnings, ignored) from a TrajectoryPlannerROS dict.
+
+    controller_frequency [Hz]: move_base's, used when the namespace has none (the real
+    node searches upward for it). warnings: the real node's texts for deprecated and
+    misspelled names and doubtful values; ignored: names this planner does not know
+    (the caller logs them once). ParamError on a value of the wrong type or range.
+    """
+    if params is None:
+        params = {}
+    if not isinstance(params, dict):
+        raise ParamError(f"{where}: expected a mapping of parameters, got {params!r}")
+    warnings, kwargs = [], {}
+    for key, value in params.items():
+        if key in _FIELDS:
+            kwargs[key] = _typed(where, key, value, _KIND[key])
+    for old, new in DEPRECATED.items():
+        if old not in params:
+            continue
+        value = _typed(where, old, params[old], "float")
+        if old == "backup_vel":
+            warnings.append(BACKUP_VEL_WARNING)
+        elif new not in params:
+            warnings.append(f"Parameter {old} is deprecated. Please use the name {new} instead.")
+        if new not in params:  # the current name wins when both are set
+            kwargs[new] = value
+            if old == "max_rotational_vel" and "min_vel_theta" not in params:
+                kwargs["min_vel_theta"] = -value
+    for old, new in MISSPELLED.items():
+        if old in params:
+            warnings.append(f"You are using {old} where you should be using {new}. Please change your "
+                            "configuration files appropriately. The documentation used to be wrong on this, "
+                            "sorry for any confusion.")
+    if "world_model" in params and params["world_model"] != "costmap":
+        raise ParamError(f"{where}/world_model: only 'costmap' is supported, got {params['world_model']!r}")
+    if "controller_frequency" not in kwargs and controller_frequency is not None:
+        kwargs["controller_frequency"] = _typed(where, "controller_frequency", controller_frequency, "float")
+    cfg = TrajectoryPlannerConfig(**kwargs)
+    if "meter_scoring" not in params:
+        warnings.append(METER_SCORING_UNSET)
+    elif not cfg.meter_scoring:
+        warnings.append(METER_SCORING_FALSE)
+    if cfg.controller_frequency <= 0:
+        warnings.append("A controller_frequency less than 0 has been set. Ignoring the parameter, "
+                        "assuming a rate of 20Hz")
+    if cfg.escape_vel >= 0.0:
+        warnings.append("You've specified a positive escape velocity. This is probably not what you want and "
+                        "will cause the robot to move forward instead of backward. You should probably change "
+                        "your escape_vel parameter to be negative")
+    for k, n in (("vx_samples", "x"), ("vtheta_samples", "theta")):
+        if getattr(cfg, k) <= 0:
+            warnings.append(f"You've specified that you don't want any samples in the {n} dimension. We'll at "
+                            f"least assume that you want to sample one value... so we're going to set {k} to 1 "
+                            "instead")
+            setattr(cfg, k, 1)
+    for k in ("sim_time", "sim_granularity", "angular_granularity"):
+        if not getattr(cfg, k) > 0:
+            raise ParamError(f"{where}/{k.replace('angular_granularity', 'angular_sim_granularity')}: "
+                             f"must be > 0, got {getattr(cfg, k)}")
+    for k in ("acc_lim_x", "acc_lim_y", "acc_lim_theta", "xy_goal_tolerance", "yaw_goal_tolerance"):
+        if getattr(cfg, k) < 0:
+            raise ParamError(f"{where}/{k}: must be >= 0, got {getattr(cfg, k)}")
+    ignored = sorted(k for k in params if k not in KNOWN_PARAMS)
+    return cfg, warnings, ignored
+
+
+# -- geometry on the grid ---------------------------------------------------------------
+def world_to_cells(costmap, x, y):
+    """(mx, my, inside) of world points [m] (any shape): costmap_2d's worldToMap."""
+    mx = np.floor((np.asarray(x) - costmap.origin_x) / costmap.resolution).astype(np.int64)
+    my = np.floor((np.asarray(y) - costmap.origin_y) / costmap.resolution).astype(np.int64)
+    inside = (mx >= 0) & (my >= 0) & (mx < costmap.size_x) & (my < costmap.size_y)
+    return mx, my, inside
+
+
+def bresenham(x0, y0, x1, y1, repeat_end=False):
+    """Cells of Bresenham lines from (x0, y0) to (x1, y1), ends included (base_local_planner's
+    LineIterator), for arrays of lines at once: (xs, ys, valid) each (..., L), L the
+    longest line's cell count; valid marks the cells each line really has (with
+    repeat_end, a shorter line repeats its end cell instead and valid is all True).
+
+    Closed form of the iterator: after i steps the major axis has moved i cells and the
+    minor one floor((den // 2 + i * numadd) / den).
+    """
+    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int32) for v in (x0, y0, x1, y1))
+    dx, dy = np.abs(x1 - x0), np.abs(y1 - y0)
+    xmajor = (dx >= dy)[..., None]
+    den = np.maximum(dx, dy)[..., None]
+    numadd = np.minimum(dx, dy)[..., None]
+    i = np.arange(int(den.max()) + 1 if den.size else 1, dtype=np.int32)
+    valid = i <= den
+    if repeat_end:
+        i = np.minimum(i, den)
+        valid = np.ones(i.shape, dtype=bool)
+    minor = (den // 2 + i * numadd) // np.maximum(den, 1)
+    sx, sy = np.sign(x1 - x0)[..., None], np.sign(y1 - y0)[..., None]
+    xs = x0[..., None] + sx * np.where(xmajor, i, minor)
+    ys = y0[..., None] + sy * np.where(xmajor, minor, i)
+    return xs, ys, valid
+
+
+def line_cells_reference(x0, y0, x1, y1):
+    """The cells of one Bresenham line, by the iterator itself (test oracle of bresenham)."""
+    dx, dy = abs(x1 - x0), abs(y1 - y0)
+    sx, sy = (1 if x1 >= x0 else -1), (1 if y1 >= y0 else -1)
+    if dx >= dy:
+        den, num, numadd, npix = dx, dx // 2, dy, dx
+    else:
+        den, num, numadd, npix = dy, dy // 2, dx, dy
+    x, y, out = x0, y0, []
+    for _ in range(npix + 1):
+        out.append((x, y))
+        num += numadd
+        if num >= den:
+            num -= den
+            if dx >= dy:
+                y += sy
+            else:
+                x += sx
+        if dx >= dy:
+            x += sx
+        else:
+            y += sy
+    return out
+
+
+def footprint_costs(costmap, polygon, x, y, th):
+    """CostmapModel::footprintCost for many poses at once.
+
+    polygon (K, 2) [m] robot frame; x, y, th (M,). Returns (M,) costs: OFF_MAP when the
+    centre or a vertex is off the costmap, COLLIDES when a cell of the outline (edges
+    rasterized with Bresenham, closing edge included) is lethal or unknown, else the
+    highest cost on the outline.
+    """
+    x, y, th = (np.asarray(v, dtype=np.float64).ravel() for v in (x, y, th))
+    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
+    px = x[:, None] + polygon[:, 0] * c - polygon[:, 1] * s      # (M, K)
+    py = y[:, None] + polygon[:, 0] * s + polygon[:, 1] * c
+    vx, vy, vin = world_to_cells(costmap, px, py)
+    _, _, cin = world_to_cells(costmap, x, y)
+    on_map = cin & vin.all(axis=1)
+    vx[~on_map], vy[~on_map] = 0, 0   # off the map: OFF_MAP whatever its cells
+    # Lines between vertices on the map stay on it; a short line repeats its end cell.
+    xs, ys, _ = bresenham(vx, vy, np.roll(vx, -1, axis=1), np.roll(vy, -1, axis=1), repeat_end=True)
+    cells = costmap.data.ravel()[ys * costmap.size_x + xs].reshape(len(x), -1)   # (M, K x L)
+    blocked = ((cells == LETHAL_OBSTACLE) | (cells == NO_INFORMATION)).any(axis=1)
+    worst = cells.max(axis=1).astype(np.float64)
+    return np.where(~on_map, OFF_MAP, np.where(blocked, COLLIDES, worst))
+
+
+def footprint_cost_reference(costmap, polygon, x, y, th):
+    """One pose's footprintCost, edge by edge and cell by cell (test oracle)."""
+    c, s = math.cos(th), math.sin(th)
+    if costmap.world_to_map(x, y) is None:
+        return OFF_MAP
+    cells = []
+    for px, py in polygon:
+        cell = costmap.world_to_map(x + px * c - py * s, y + px * s + py * c)
+        if cell is None:
+            return OFF_MAP
+        cells.append(cell)
+    worst = 0.0
+    for k in range(len(cells)):
+        (x0, y0), (x1, y1) = cells[k], cells[(k + 1) % len(cells)]
+        for cx, cy in line_cells_reference(x0, y0, x1, y1):
+            cost = int(costmap.data[cy, cx])
+            if cost in (LETHAL_OBSTACLE, NO_INFORMATION):
+                return COLLIDES
+            worst = max(worst, float(cost))
+    return worst
+
+
+def footprint_cells(costmap, polygon, pose):
+    """(H, W) bool: the cells of the footprint at pose, its outline and inside (FootprintHelper)."""
+    h, w = costmap.data.shape
+    mask = np.zeros((h, w), dtype=bool)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    px = pose[0] + polygon[:, 0] * c - polygon[:, 1] * s
+    py = pose[1] + polygon[:, 0] * s + polygon[:, 1] * c
+    vx, vy, _ = world_to_cells(costmap, px, py)
+    xs, ys, valid = bresenham(vx, vy, np.roll(vx, -1), np.roll(vy, -1))
+    xs, ys = xs[valid], ys[valid]
+    # Fill each column between its lowest and highest outline cell (a convex footprint).
+    for cx in np.unique(xs):
+        if 0 <= cx < w:
+            col = ys[xs == cx]
+            mask[max(0, col.min()):min(h, col.max() + 1), cx] = True
+    return mask
+
+
+# -- 2. distance grids --------------------------------------------------------------------
+def densify(plan, resolution):
+    """MapGrid::adjustPlanResolution: points added so that neighbours are at most resolution [m] apart."""
+    plan = np.asarray(plan, dtype=np.float64)
+    out = [plan[:1]]
+    for a, b in zip(plan[:-1], plan[1:]):
+        d = math.hypot(b[0] - a[0], b[1] - a[1])
+        if d > resolution:
+            steps = int(math.ceil(d / resolution))
+            j = np.arange(1, steps)[:, None]
+            out.append(a + j * (b - a) / steps)
+        out.append(b[None])
+    return np.vstack(out)
+
+
+def plan_cells(costmap, plan):
+    """The plan's cells from its first on the costmap and known, until it leaves (setTargetCells):
+    (mx, my) int arrays, in plan order (may repeat), over the densified plan."""
+    dense = densify(plan, costmap.resolution)
+    mx, my, inside = world_to_cells(costmap, dense[:, 0], dense[:, 1])
+    ok = inside.copy()
+    ok[inside] = costmap.data[my[inside], mx[inside]] != NO_INFORMATION
+    idx = np.flatnonzero(ok)
+    if idx.size == 0:
+        return mx[:0], my[:0]
+    start = idx[0]
+    stop = np.flatnonzero(~ok[start:])
+    end = start + (stop[0] if stop.size else len(ok) - start)
+    return mx[start:end], my[start:end]
+
+
+def blocked_cells(costmap, within_robot):
+    """(H, W) bool: cells the wavefront cannot cross (lethal, inscribed, unknown), not under the robot."""
+    d = costmap.data
+    return ((d == LETHAL_OBSTACLE) | (d == INSCRIBED_INFLATED_OBSTACLE) | (d == NO_INFORMATION)) & ~within_robot
+
+
+def map_grid(costmap, targets, within_robot):
+    """MapGrid::computeTargetDistance, a frontier at a time: (H, W) float distances [cells].
+
+    targets: (mx, my) arrays of cells at distance 0; a 4-connected breadth-first wave
+    spreads from them over free cells; a blocked cell it touches gets obstacle_cost
+    (H x W) and stops it; cells never touched get obstacle_cost + 1.
+    """
+    h, w = costmap.data.shape
+    obstacle = float(h * w)
+    w2 = w + 2
+    # Padded by one marked cell on each side: neighbours need no bounds checks.
+    marked = np.ones((h + 2, w2), dtype=bool)
+    marked[1:-1, 1:-1] = False
+    marked = marked.ravel()
+    blocked = np.zeros((h + 2, w2), dtype=bool)
+    blocked[1:-1, 1:-1] = blocked_cells(costmap, within_robot)
+    blocked = blocked.ravel()
+    dist = np.full((h + 2) * w2, obstacle + 1.0)
+    mx, my = targets
+    if len(mx) == 0:
+        return dist.reshape(h + 2, w2)[1:-1, 1:-1].copy()
+    front = np.unique((np.asarray(my) + 1) * w2 + np.asarray(mx) + 1)
+    marked[front] = True
+    dist[front] = 0.0
+    level = 0.0
+    offsets = np.array([-1, 1, -w2, w2])
+    slot = np.zeros((h + 2) * w2, dtype=np.int64)   # scratch: drops repeated neighbours without a sort
+    while front.size:
+        level += 1.0
+        nb = (front[:, None] + offsets).ravel()
+        nb = nb[~marked[nb]]
+        slot[nb] = np.arange(nb.size)
+        nb = nb[slot[nb] == np.arange(nb.size)]
+        marked[nb] = True
+        hit = blocked[nb]
+        dist[nb[hit]] = obstacle
+        front = nb[~hit]
+        dist[front] = level
+    return dist.reshape(h + 2, w2)[1:-1, 1:-1].copy()
+
+
+def map_grid_reference(costmap, targets, within_robot):
+    """The wavefront with a queue, cell by cell, as MapGrid does it (test oracle of map_grid)."""
+    h, w = costmap.data.shape
+    obstacle = float(h * w)
+    blocked = blocked_cells(costmap, within_robot)
+    dist = np.full((h, w), obstacle + 1.0)
+    marked = np.zeros((h, w), dtype=bool)
+    queue = deque()
+    for cx, cy in zip(*targets):
+        dist[cy, cx] = 0.0
+        marked[cy, cx] = True
+        queue.append((int(cx), int(cy)))
+    while queue:
+        cx, cy = queue.popleft()
+        for nx, ny in ((cx - 1, cy), (cx + 1, cy), (cx, cy - 1), (cx, cy + 1)):
+            if not (0 <= nx < w and 0 <= ny < h) or marked[ny, nx]:
+                continue
+            marked[ny, nx] = True
+            if blocked[ny, nx]:
+                dist[ny, nx] = obstacle
+                continue
+            dist[ny, nx] = min(dist[ny, nx], dist[cy, cx] + 1.0)
+            queue.append((nx, ny))
+    return dist
+
+
+@dataclass
+class Grids:
+    """One cycle's scoring inputs: path and goal distance grids [cells], the plan they
+    came from (the windowed plan, costmap frame [m]) and its local goal cell."""
+
+    path: np.ndarray
+    goal: np.ndarray
+    plan: np.ndarray
+    obstacle_cost: float
+
+
+def map_grids(costmap, plan, polygon, pose, grid_fn=map_grid):
+    """Path and goal distance grids for the windowed plan (N, 2) [m] and the robot at pose."""
+    within = footprint_cells(costmap, polygon, pose)
+    mx, my = plan_cells(costmap, plan)
+    path = grid_fn(costmap, (mx, my), within)
+    goal_cell = (mx[-1:], my[-1:])
+    goal = grid_fn(costmap, goal_cell, within)
+    return Grids(path=path, goal=goal, plan=np.asarray(plan, dtype=np.float64),
+                 obstacle_cost=float(costmap.data.size))
+
+
+# -- 4. rollouts ----------------------------------------------------------------------------
+def step_counts(cfg, samples):
+    """(N,) simulation steps of each sample (generateTrajectory's num_steps, at least 1)."""
+    if cfg.heading_scoring:
+        n = np.full(len(samples), int(cfg.sim_time / cfg.sim_granularity + 0.5))
+    else:
+        vmag = np.hypot(samples[:, 0], samples[:, 1])
+        n = np.floor(np.maximum(vmag * cfg.sim_time / cfg.sim_granularity,
+                                np.abs(samples[:, 2]) / cfg.angular_granularity) + 0.5).astype(np.int64)
+    return np.maximum(n, 1)
+
+
+def _ramp(v0, vg, a_dt, n_steps):
+    """(N, n_steps) velocities after 1..n_steps steps ramping from v0 toward vg (N, 1) by
+    a_dt (N, 1) per step (computeNewVelocity, summed in the loop's order)."""
+    up = vg >= v0
+    steps = np.repeat(np.where(up, a_dt, -a_dt), n_steps, axis=1)
+    cs = np.cumsum(np.concatenate([np.full_like(a_dt, v0), steps], axis=1), axis=1)[:, 1:]
+    return np.where(up, np.minimum(vg, cs), np.maximum(vg, cs))
+
+
+@dataclass
+class Rollouts:
+    """All samples' trajectories: cost (N,) (< 0: illegal, COLLIDES or NO_WAY), points
+    x, y, th (N, S) of which the first n (N,) are the trajectory's."""
+
+    samples: np.ndarray
+    cost: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    th: np.ndarray
+    n: np.ndarray
+
+    def points(self, i):
+        """(n, 3) poses of sample i (x [m], y [m], yaw [rad])."""
+        k = int(self.n[i])
+        return np.column_stack([self.x[i, :k], self.y[i, :k], self.th[i, :k]])
+
+
+def rollout(cfg, pose, vel, samples, costmap, grids, polygon, biases):
+    """Simulate and score every sample at once (generateTrajectory for all of them).
+
+    pose (x, y, yaw), vel (vx, vy, vth) the robot's; samples (N, 3); grids from
+    map_grids; polygon (K, 2) [m]; biases (path_distance_bias, goal_distance_bias) as
+    used (scaled by the resolution with meter_scoring). Returns Rollouts.
+    """
+    samples = np.asarray(samples, dtype=np.float64).reshape(-1, 3)
+    n = step_counts(cfg, samples)
+    big_s = int(n.max())
+    dt = (cfg.sim_time / n)[:, None]                            # (N, 1) [s]
+    # (N, S) velocity after step i's update, the one it moves with
+    vx, vy, vth = (_ramp(float(v0), samples[:, k:k + 1], a * dt, big_s)
+                   for k, (v0, a) in enumerate(zip(vel, (cfg.acc_lim_x, cfg.acc_lim_y, cfg.acc_lim_theta))))
+    th = np.cumsum(np.concatenate([np.full((len(samples), 1), float(pose[2])), vth[:, :-1] * dt], axis=1), axis=1)
+    c, s = np.cos(th[:, :-1]), np.sin(th[:, :-1])
+    x = np.cumsum(np.concatenate([np.full((len(samples), 1), float(pose[0])),
+                                  (vx[:, :-1] * c - vy[:, :-1] * s) * dt], axis=1), axis=1)
+    y = np.cumsum(np.concatenate([np.full((len(samples), 1), float(pose[1])),
+                                  (vx[:, :-1] * s + vy[:, :-1] * c) * dt], axis=1), axis=1)
+    steps = np.arange(big_s)[None, :]
+    live = steps < n[:, None]
+    mx, my, inside = world_to_cells(costmap, x, y)
+    h, w = costmap.data.shape
+    centre = costmap.data[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)].astype(np.float64)
+    fp = np.zeros(x.shape)
+    fp[live] = footprint_costs(costmap, polygon, x[live], y[live], th[live])
+    collides = ~inside | (fp < 0)
+    cx, cy = np.clip(mx, 0, w - 1), np.clip(my, 0, h - 1)
+    path_d, goal_d = grids.path[cy, cx], grids.goal[cy, cx]
+    heading = np.zeros(x.shape)
+    if cfg.simple_attractor:
+        scored = np.zeros(x.shape, dtype=bool)
+    elif cfg.heading_scoring:
+        # time at step i, summed step by step as the loop does
+        t = np.cumsum(np.concatenate([np.zeros((len(samples), 1)), np.repeat(dt, big_s - 1, axis=1)], axis=1),
+                      axis=1)
+        scored = live & (t >= cfg.heading_scoring_timestep) & (t < cfg.heading_scoring_timestep + dt)
+        for i, j in zip(*np.nonzero(scored & ~collides)):
+            heading[i, j] = heading_diff(costmap, grids.plan, mx[i, j], my[i, j], x[i, j], y[i, j], th[i, j])
+    else:
+        scored = live
+    no_way = scored & ((path_d >= grids.obstacle_cost) | (goal_d >= grids.obstacle_cost))
+    bad = live & (collides | no_way)
+    first = np.where(bad.any(axis=1), bad.argmax(axis=1), big_s)
+    rows = np.arange(len(samples))
+    fail = np.where(collides[rows, np.minimum(first, big_s - 1)], COLLIDES, NO_WAY)
+    occ = np.where(live, np.maximum(fp, centre), 0.0).max(axis=1)
+    if cfg.simple_attractor:
+        last = n - 1
+        gx, gy = grids.plan[-1]
+        pd = np.zeros(len(samples))
+        gd = (x[rows, last] - gx) ** 2 + (y[rows, last] - gy) ** 2
+        hd = np.zeros(len(samples))
+    else:
+        # the last scored point's distances (none scored: 0)
+        k = np.where(scored.any(axis=1), big_s - 1 - np.argmax(scored[:, ::-1], axis=1), -1)
+        kk = np.maximum(k, 0)
+        pd = np.where(k >= 0, path_d[rows, kk], 0.0)
+        gd = np.where(k >= 0, goal_d[rows, kk], 0.0)
+        hd = np.where(k >= 0, heading[rows, kk], 0.0)
+    cost = biases[0] * pd + biases[1] * gd + cfg.occdist_scale * occ
+    if cfg.heading_scoring:
+        cost = cost + HEADING_WEIGHT * hd
+    cost = np.where(first < big_s, fail, cost)
+    return Rollouts(samples=samples, cost=cost, x=x, y=y, th=th, n=n)
+
+
+def generate_trajectory_reference(cfg, pose, vel, sample, costmap, grids, polygon, biases):
+    """One sample, step by step (generateTrajectory): (cost, (n, 3) points). Test oracle."""
+    x, y, th = (float(v) for v in pose)
+    vx, vy, vth = (float(v) for v in vel)
+    sx, sy, sth = (float(v) for v in sample)
+    n = int(step_counts(cfg, np.array([[sx, sy, sth]]))[0])
+    dt = cfg.sim_time / n
+    t, path_d, goal_d, occ, heading = 0.0, 0.0, 0.0, 0.0, 0.0
+    pts = []
+
+    def toward(vg, vi, a):
+        return min(vg, vi + a * dt) if vg - vi >= 0 else max(vg, vi - a * dt)
+
+    for _ in range(n):
+        cell = costmap.world_to_map(x, y)
+        if cell is None:
+            return COLLIDES, np.array(pts).reshape(-1, 3)
+        fp = footprint_cost_reference(costmap, polygon, x, y, th)
+        if fp < 0:
+            return COLLIDES, np.array(pts).reshape(-1, 3)
+        occ = max(occ, fp, float(costmap.data[cell[1], cell[0]]))
+        if cfg.simple_attractor:
+            gx, gy = grids.plan[-1]
+            goal_d = (x - gx) ** 2 + (y - gy) ** 2
+        else:
+            update = True
+            if cfg.heading_scoring:
+                if cfg.heading_scoring_timestep <= t < cfg.heading_scoring_timestep + dt:
+                    heading = heading_diff(costmap, grids.plan, cell[0], cell[1], x, y, th)
+                else:
+                    update = False
+            if update:
+                path_d = grids.path[cell[1], cell[0]]
+                goal_d = grids.goal[cell[1], cell[0]]
+                if path_d >= grids.obstacle_cost or goal_d >= grids.obstacle_cost:
+                    return NO_WAY, np.array(pts).reshape(-1, 3)
+        pts.append((x, y, th))
+        vx = toward(sx, vx, cfg.acc_lim_x)
+        vy = toward(sy, vy, cfg.acc_lim_y)
+        vth = toward(sth, vth, cfg.acc_lim_theta)
+        c, s = np.cos(th), np.sin(th)
+        x = x + (vx * c - vy * s) * dt
+        y = y + (vx * s + vy * c) * dt
+        th = th + vth * dt
+        t += dt
+    cost = biases[0] * path_d + biases[1] * goal_d + cfg.occdist_scale * occ
+    if cfg.heading_scoring:
+        cost += HEADING_WEIGHT * heading
+    return cost, np.array(pts).reshape(-1, 3)
+
+
+def rollout_reference(cfg, pose, vel, samples, costmap, grids, polygon, biases):
+    """rollout's interface over generate_trajectory_reference, one sample at a time."""
+    samples = np.asarray(samples, dtype=np.float64).reshape(-1, 3)
+    n = step_counts(cfg, samples)
+    big_s = int(n.max())
+    cost = np.zeros(len(samples))
+    xs, ys, ths = (np.full((len(samples), big_s), np.nan) for _ in range(3))
+    for i, smp in enumerate(samples):
+        cost[i], pts = generate_trajectory_reference(cfg, pose, vel, smp, costmap, grids, polygon, biases)
+        k = len(pts)
+        xs[i, :k], ys[i, :k], ths[i, :k] = pts[:, 0], pts[:, 1], pts[:, 2]
+    return Rollouts(samples=samples, cost=cost, x=xs, y=ys, th=ths, n=n)
+
+
+def heading_diff(costmap, plan, cx, cy, x, y, heading):
+    """|angle| [rad] from heading to the farthest plan point in line of sight of cell
+    (cx, cy) (no lethal, inscribed or unknown cell on the Bresenham line); inf if none."""
+    h, w = costmap.data.shape
+    for px, py in plan[::-1]:
+        cell = costmap.world_to_map(px, py)
+        if cell is None:
+            continue
+        xs, ys, valid = bresenham(cx, cy, cell[0], cell[1])
+        line = costmap.data[ys[valid], xs[valid]]
+        if not ((line == LETHAL_OBSTACLE) | (line == INSCRIBED_INFLATED_OBSTACLE) | (line == NO_INFORMATION)).any():
+            gx, gy = costmap.map_to_world(*cell)
+            return abs(wrap_angle(math.atan2(gy - y, gx - x) - heading))
+    return math.inf
+
+
+# -- 1. the plan ---------------------------------------------------------------------------
+def window_plan(plan, pose, costmap):
+    """(first, end): the plan points [first, end) transformGlobalPlan keeps: from the first
+    within half the costmap's larger side of the robot to the first beyond it, included."""
+    reach = max(costmap.size_x, costmap.size_y) * costmap.resolution / 2.0
+    d2 = (plan[:, 0] - pose[0]) ** 2 + (plan[:, 1] - pose[1]) ** 2
+    near = d2 <= reach * reach
+    if not near.any():
+        return 0, 0
+    first = int(np.argmax(near))
+    out = np.flatnonzero(~near[first:])
+    end = first + int(out[0]) + 1 if out.size else len(plan)
+    return first, end
+
+
+def sign(v):
+    """base_local_planner's sign: -1 for negative, else +1."""
+    return -1.0 if v < 0.0 else 1.0
+
+
+# -- the planner ----------------------------------------------------------------------------
+class TrajectoryPlanner:
+    """base_local_planner's TrajectoryPlannerROS without ROS (nav_core's BaseLocalPlanner).
+
+    config: TrajectoryPlannerConfig; footprint: costmap.Footprint (its padded polygon is
+    checked); reference: run on the per-trajectory loop and the queue wavefront (slow;
+    the tests' oracle). Use as DWAPlanner: set_plan(plan, goal_yaw) per global plan,
+    compute_velocity(pose, velocity, costmap) each control period, is_goal_reached().
+    """
+
+    KNOWN_PARAMS = KNOWN_PARAMS
+
+    def __init__(self, config, footprint, reference=False):
+        self.config = config
+        self.footprint = footprint
+        self.polygon = np.asarray(footprint.polygon, dtype=np.float64)
+        self._rollout = rollout_reference if reference else rollout
+        self._grid_fn = map_grid_reference if reference else map_grid
+        self.warnings = []     # the real node's warnings about the parameters, for the caller to log
+        self.ignored = []      # parameter names the planner does not know
+        self.plan = None
+        self.goal_yaw = 0.0
+        self.xy_latched = False
+        self.goal_reached = False
+        self.rotating_to_goal = False
+        self.latency = config.sim_period   # [s] accepted (set_control_latency); the real planner has no use for it
+        # stuck / oscillation flags and escape mode (TrajectoryPlanner's members)
+        self.stuck_left = self.stuck_right = False
+        self.stuck_left_strafe = self.stuck_right_strafe = False
+        self.rotating_left = self.rotating_right = False
+        self.strafe_left = self.strafe_right = False
+        self.prev_xy = (0.0, 0.0)
+        self.escaping = False
+        self.escape_pose = (0.0, 0.0, 0.0)
+        self.grids = None      # the last cycle's Grids (debugging, tests)
+
+    @classmethod
+    def from_params(cls, params, footprint, where="TrajectoryPlannerROS", controller_frequency=None):
+        """A planner from the TrajectoryPlannerROS parameter dict (see trajectory_planner_config);
+        its .warnings and .ignored say what the caller should log once."""
+        cfg, warnings, ignored = trajectory_planner_config(params, where, controller_frequency)
+        planner = cls(cfg, footprint)
+        planner.warnings, planner.ignored = warnings, ignored
+        return planner
+
+    # -- nav_core interface ------------------------------------------------------------
+    def set_plan(self, plan, goal_yaw):
+        """A new global plan: (N, 2) points [m] in the costmap frame, goal heading [rad].
+        Clears the xy latch and the reached flag, as setPlan."""
+        plan = np.asarray(plan, dtype=np.float64)
+        if plan.ndim != 2 or len(plan) == 0 or not np.isfinite(plan[:, :2]).all() or not math.isfinite(goal_yaw):
+            raise ValueError("the plan must be a non-empty list of finite points and goal_yaw finite")
+        plan = plan[:, :2].copy()
+        if self.plan is None or np.hypot(*(self.plan[-1] - plan[-1])) > 1e-6:
+            self.rotating_to_goal = False
+        self.plan = plan
+        self.goal_yaw = float(goal_yaw)
+        self.xy_latched = False
+        self.goal_reached = False
+
+    def is_goal_reached(self):
+        return self.goal_reached
+
+    def set_control_latency(self, seconds):
+        """Accepted for DWAPlanner's interface [s]; the Trajectory Rollout planner plans for
+        sim_period whatever the loop's timing, as the real one."""
+        if math.isfinite(seconds):
+            self.latency = float(seconds)
+
+    def compute_velocity_commands(self, pose, velocity, costmap):
+        return self.compute_velocity(pose, velocity, costmap)
+
+    def compute_velocity(self, pose, velocity, costmap):
+        """One control cycle (computeVelocityCommands).
+
+        pose (x [m], y [m], yaw [rad]) in the costmap frame; velocity (vx [m/s], vy [m/s],
+        vth [rad/s]) from odometry; costmap: the local Costmap2D. Returns a dwa.DWAResult.
+        """
+        cfg = self.config
+        if self.plan is None:
+            return DWAResult(ok=False, reason="no plan set")
+        if not all(math.isfinite(v) for v in tuple(pose) + tuple(velocity)):
+            return DWAResult(ok=False, reason=f"pose {pose} or velocity {velocity} not finite")
+        if self.goal_reached:
+            return DWAResult(goal_reached=True, mode="goal")
+        first, end = window_plan(self.plan, pose, costmap)
+        local = self.plan[first:end]
+        if cfg.prune_plan and len(local):
+            near = np.flatnonzero((local[:, 0] - pose[0]) ** 2 + (local[:, 1] - pose[1]) ** 2
+                                  < PRUNE_DIST * PRUNE_DIST)
+            if near.size:
+                self.plan = self.plan[first + near[0]:]
+                local = local[near[0]:]
+            else:
+                local = local[:0]
+        if len(local) == 0:
+            return DWAResult(ok=False, reason=f"no point of the plan within {PRUNE_DIST} m of the robot "
+                             "inside the local costmap")
+        goal = self.plan[-1]
+        if self.xy_latched or math.hypot(goal[0] - pose[0], goal[1] - pose[1]) <= cfg.xy_goal_tolerance:
+            return self._at_goal(pose, velocity, costmap, local)
+        self.grids = map_grids(costmap, local, self.polygon, pose, self._grid_fn)
+        return self._find_best_path(pose, velocity, costmap)
+
+    # -- the goal --------------------------------------------------------------------------
+    def _biases(self, costmap):
+        scale = costmap.resolution if self.config.meter_scoring else 1.0
+        return self.config.path_distance_bias * scale, self.config.goal_distance_bias * scale
+
+    def _legal(self, pose, velocity, cmd, costmap):
+        """checkTrajectory: the command, simulated from the current velocity, has cost >= 0."""
+        r = self._rollout(self.config, pose, velocity, np.array([cmd]), costmap, self.grids, self.polygon,
+                          self._biases(costmap))
+        return r.cost[0] >= 0
+
+    def _at_goal(self, pose, velocity, costmap, local):
+        cfg = self.config
+        if cfg.latch_xy_goal_tolerance:
+            self.xy_latched = True
+        err = wrap_angle(self.goal_yaw - pose[2])
+        if abs(err) <= cfg.yaw_goal_tolerance:
+            self.rotating_to_goal = False
+            self.xy_latched = False
+            self.goal_reached = True
+            return DWAResult(goal_reached=True, mode="goal")
+        self.grids = map_grids(costmap, local, self.polygon, pose, self._grid_fn)
+        dt = cfg.sim_period
+        vx, vy, vth = velocity
+        stopped = abs(vth) <= STOPPED_VEL and abs(vx) <= STOPPED_VEL and abs(vy) <= STOPPED_VEL
+        if not self.rotating_to_goal and not stopped:
+            # stopWithAccLimits: brake as hard as allowed, if that is legal
+            cmd = tuple(sign(v) * max(0.0, abs(v) - a * dt)
+                        for v, a in zip(velocity, (cfg.acc_lim_x, cfg.acc_lim_y, cfg.acc_lim_theta)))
+            if self._legal(pose, velocity, cmd, costmap):
+                return DWAResult(cmd=cmd, mode="stop")
+            return DWAResult(ok=False, reason="cannot brake at the goal: the braking trajectory collides",
+                             mode="stop")
+        self.rotating_to_goal = True
+        # rotateToGoal: toward the heading, no slower than min_in_place_vel_theta, within the
+        # acceleration window and slow enough to stop at the heading
+        if err > 0.0:
+            w = min(cfg.max_vel_theta, max(cfg.min_in_place_vel_theta, err))
+        else:
+            w = max(cfg.min_vel_theta, min(-cfg.min_in_place_vel_theta, err))
+        lo, hi = abs(vth) - cfg.acc_lim_theta * dt, abs(vth) + cfg.acc_lim_theta * dt
+        w = sign(w) * min(max(abs(w), lo), hi)
+        w = sign(w) * min(math.sqrt(2.0 * cfg.acc_lim_theta * abs(err)), abs(w))
+        w = min(cfg.max_vel_theta, max(cfg.min_in_place_vel_theta, w)) if w > 0.0 else \
+            max(cfg.min_vel_theta, min(-cfg.min_in_place_vel_theta, w))
+        if self._legal(pose, velocity, (0.0, 0.0, w), costmap):
+            return DWAResult(cmd=(0.0, 0.0, w), mode="rotate")
+        return DWAResult(ok=False, reason="cannot rotate to the goal heading: the footprint would hit an "
+                         "obstacle", mode="rotate")
+
+    # -- sampling and choice -------------------------------------------------------------------
+    def _window(self, pose, velocity):
+        """(vx_lo, vx_hi, vth_lo, vth_hi): createTrajectories' velocity limits."""
+        cfg = self.config
+        vx, _, vth = velocity
+        t = cfg.sim_period if cfg.dwa else cfg.sim_time
+        end = self.grids.plan[-1]
+        max_x = min(cfg.max_vel_x, math.hypot(end[0] - pose[0], end[1] - pose[1]) / cfg.sim_time)
+        max_x = max(min(max_x, vx + cfg.acc_lim_x * t), cfg.min_vel_x)
+        min_x = max(cfg.min_vel_x, vx - cfg.acc_lim_x * t)
+        max_th = min(cfg.max_vel_theta, vth + cfg.acc_lim_theta * t)
+        min_th = max(cfg.min_vel_theta, vth - cfg.acc_lim_theta * t)
+        return min_x, max_x, min_th, max_th
+
+    @staticmethod
+    def _steps(lo, hi, n):
+        """n values from lo by (hi - lo) / (n - 1), summed one at a time as the real loop does."""
+        d = (hi - lo) / (n - 1) if n > 1 else math.inf
+        vals, v = [], lo
+        for _ in range(n):
+            vals.append(v)
+            v += d
+        return np.array(vals), d
+
+    def _find_best_path(self, pose, velocity, costmap):
+        cfg = self.config
+        min_x, max_x, min_th, max_th = self._window(pose, velocity)
+        vxs, _ = self._steps(min_x, max_x, cfg.vx_samples)
+        ths, dth = self._steps(min_th, max_th, cfg.vtheta_samples)
+        if not math.isfinite(dth):
+            dth = math.inf
+        biases = self._biases(costmap)
+        forward = []
+        if not self.escaping:
+            for vx in vxs:
+                forward.append((vx, 0.0, 0.0))
+                forward.extend((vx, 0.0, th) for th in ths[:-1])
+            if cfg.holonomic_robot:
+                forward += [(HOLONOMIC_DIAGONAL, HOLONOMIC_DIAGONAL, 0.0),
+                            (HOLONOMIC_DIAGONAL, -HOLONOMIC_DIAGONAL, 0.0)]
+        slowest = cfg.min_in_place_vel_theta   # the base cannot turn slower in place
+        in_place = [(0.0, 0.0, max(th, slowest) if th > 0 else min(th, -slowest)) for th in ths]
+        samples = np.array(forward + in_place, dtype=np.float64).reshape(-1, 3)
+        r = self._rollout(cfg, pose, velocity, samples, costmap, self.grids, self.polygon, biases)
+        n_f = len(forward)
+        n_samples, n_valid = len(samples), int((r.cost >= 0).sum())
+        best = None   # index into r
+        if n_f:
+            legal = r.cost[:n_f] >= 0
+            if legal.any():
+                best = int(np.argmin(np.where(legal, r.cost[:n_f], np.inf)))
+        # Rotations in place: one replaces the best if no dearer (or the best strafes), the
+        # one whose look-ahead point is nearest the goal, not in a direction found stuck.
+        heading_dist = math.inf
+        for j, th in enumerate(ths):
+            i = n_f + j
+            if r.cost[i] < 0 or not (best is None or r.cost[i] <= r.cost[best] or r.samples[best, 1] != 0.0):
+                continue
+            if not (th > dth or th < -dth):
+                continue
+            ahead = self._ahead_goal_dist(r, i, costmap)
+            if ahead is not None and ahead < heading_dist:
+                if (th < 0 and not self.stuck_left) or (th > 0 and not self.stuck_right):
+                    best, heading_dist = i, ahead
+        if best is not None:
+            self._after_choice(pose, r.samples[best], swapped=False)
+            return self._result(r, best, n_valid, n_samples)
+        if cfg.holonomic_robot and len(cfg.y_vels):
+            strafes = np.array([(0.0, vy, 0.0) for vy in cfg.y_vels])
+            rs = self._rollout(cfg, pose, velocity, strafes, costmap, self.grids, self.polygon, biases)
+            n_samples += len(strafes)
+            n_valid += int((rs.cost >= 0).sum())
+            sbest = None
+            for i, vy in enumerate(cfg.y_vels):
+                if rs.cost[i] < 0 or not (sbest is None or rs.cost[i] <= rs.cost[sbest]):
+                    continue
+                ahead = self._ahead_goal_dist(rs, i, costmap)
+                if ahead is not None and ahead < heading_dist:
+                    if (vy > 0 and not self.stuck_left_strafe) or (vy < 0 and not self.stuck_right_strafe):
+                        sbest, heading_dist = i, ahead
+            if sbest is not None:
+                self._after_choice(pose, rs.samples[sbest], swapped=True)
+                return self._result(rs, sbest, n_valid, n_samples)
+        # Nothing legal: back up at escape_vel, even into an obstacle, unless there is no way
+        # to the plan from there; enter escape mode.
+        rb = self._rollout(cfg, pose, velocity, np.array([(cfg.escape_vel, 0.0, 0.0)]), costmap, self.grids,
+                           self.polygon, biases)
+        n_samples += 1
+        self._reset_stuck_if_moved(pose)
+        if not self.escaping and rb.cost[0] > NO_WAY:
+            self.escape_pose = tuple(float(v) for v in pose)
+            self.escaping = True
+        self._maybe_end_escape(pose)
+        if rb.cost[0] == NO_WAY:
+            return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
+                             "footprint off lethal and unknown cells with a clear way to the plan, and backing up "
+                             "at escape_vel leads where no way to the plan is clear",
+                             n_valid=0, n_samples=n_samples, mode="escape")
+        cost = 1.0 if rb.cost[0] == COLLIDES else float(rb.cost[0])
+        return DWAResult(cmd=(float(cfg.escape_vel), 0.0, 0.0), trajectory=rb.points(0), n_valid=n_valid,
+                         n_samples=n_samples, cost=cost, mode="escape")
+
+    def _ahead_goal_dist(self, r, i, costmap):
+        """Goal distance [cells] heading_lookahead ahead of sample i's end point; None off the map."""
+        k = int(r.n[i]) - 1
+        xe, ye, the = r.x[i, k], r.y[i, k], r.th[i, k]
+        cell = costmap.world_to_map(xe + self.config.heading_lookahead * math.cos(the),
+                                    ye + self.config.heading_lookahead * math.sin(the))
+        return None if cell is None else float(self.grids.goal[cell[1], cell[0]])
+
+    def _result(self, r, i, n_valid, n_samples):
+        cmd = tuple(float(v) for v in r.samples[i])
+        return DWAResult(cmd=cmd, trajectory=r.points(i), n_valid=n_valid, n_samples=n_samples,
+                         cost=float(r.cost[i]), mode="escape" if self.escaping else ("dwa" if self.config.dwa
+                                                                                      else "rollout"))
+
+    # -- stuck flags and escape mode -----------------------------------------------------------
+    def _after_choice(self, pose, cmd, swapped):
+        """The stuck flags after a legal choice not driving forward. swapped: the strafing
+        branch, whose bookkeeping the real planner writes with left and right swapped."""
+        vx, vy, vth = cmd
+        if not vx > 0:
+            if vth < 0:
+                self.stuck_right |= self.rotating_right
+                if swapped:
+                    self.rotating_left = True
+                else:
+                    self.rotating_right = True
+            elif vth > 0:
+                self.stuck_left |= self.rotating_left
+                if swapped:
+                    self.rotating_right = True
+                else:
+                    self.rotating_left = True
+            elif vy > 0:
+                self.stuck_right_strafe |= self.strafe_right
+                if swapped:
+                    self.strafe_left = True
+                else:
+                    self.strafe_right = True
+            elif vy < 0:
+                self.stuck_left_strafe |= self.strafe_left
+                if swapped:
+                    self.strafe_right = True
+                else:
+                    self.strafe_left = True
+            self.prev_xy = (float(pose[0]), float(pose[1]))
+        self._reset_stuck_if_moved(pose)
+        self._maybe_end_escape(pose)
+
+    def _reset_stuck_if_moved(self, pose):
+        if math.hypot(pose[0] - self.prev_xy[0], pose[1] - self.prev_xy[1]) > self.config.oscillation_reset_dist:
+            self.stuck_left = self.stuck_right = False
+            self.stuck_left_strafe = self.stuck_right_strafe = False
+            self.rotating_left = self.rotating_right = False
+            self.strafe_left = self.strafe_right = False
+
+    def _maybe_end_escape(self, pose):
+        ex, ey, eth = self.escape_pose
+        if (math.hypot(pose[0] - ex, pose[1] - ey) > self.config.escape_reset_dist
+                or abs(wrap_angle(pose[2] - eth)) > self.config.escape_reset_theta):
+            self.escaping = False
