@@ -36,6 +36,12 @@ def test_no_parameters_at_all_means_the_real_defaults():
     assert p.namespaces == {} and p.ignored == ()
 
 
+def test_ignored_parameters_are_named_when_they_ask_for_something():
+    assert move_base_params({"shutdown_costmaps": False}).ignored == ()
+    assert move_base_params({"shutdown_costmaps": True, "make_plan_clear_costmap": True}).ignored == \
+        ("shutdown_costmaps", "make_plan_clear_costmap")
+
+
 def test_missing_planner_namespaces_mean_defaults(footprint):
     p = move_base_params({"base_local_planner": DWA})
     pl = MoveBasePlugins(p, footprint=footprint)

@@ -64,8 +64,10 @@ class MoveBaseConfig:
     debug_dump_dir: str = ""
 
 
-# move_base parameters the real node reads and this one accepts without acting on them.
-IGNORED_MOVE_BASE_PARAMS = ("shutdown_costmaps", "make_plan_clear_costmap", "make_plan_add_unreachable_goal")
+# move_base parameters the real node reads and this one accepts without acting on them:
+# each with the value that matches what this node does (another value is logged as ignored).
+IGNORED_MOVE_BASE_PARAMS = {"shutdown_costmaps": False, "make_plan_clear_costmap": False,
+                            "make_plan_add_unreachable_goal": False}
 
 
 @dataclass
@@ -200,7 +202,7 @@ class MoveBaseParams:
     global_costmap: CostmapConfig
     local_costmap: CostmapConfig
     namespaces: dict = field(default_factory=dict)   # {name: {param: value}}
-    ignored: tuple = ()                               # given parameters this node does not act on
+    ignored: tuple = ()      # parameters given a value asking for what this node does not do
 
     def namespace(self, name):
         """The parameters under ~name ({} when missing: the plugin's defaults)."""
@@ -235,7 +237,8 @@ def move_base_params(ns, where="move_base"):
     costmaps = {name: costmap_config(subs.pop(name, {}), f"{where}/{name}")
                 for name in ("global_costmap", "local_costmap")}
     return MoveBaseParams(move_base=mb, namespaces=subs,
-                          ignored=tuple(k for k in IGNORED_MOVE_BASE_PARAMS if k in own), **costmaps)
+                          ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v),
+                          **costmaps)
 
 
 def _read(path):
