@@ -62,8 +62,10 @@ def test_trajectory_planner_default_is_named_when_absent(footprint):
     try:
         import my_summit_path_planning.trajectory_planner  # noqa: F401
     except ModuleNotFoundError:
-        with pytest.raises(PluginError, match=r"base_local_planner/TrajectoryPlannerROS is not available in this "
-                                              r"build \(its module my_summit_path_planning.trajectory_planner"):
+        with pytest.raises(PluginError, match=r"base_local_planner: base_local_planner/TrajectoryPlannerROS is not "
+                                              r"available in this build \(its module my_summit_path_planning."
+                                              r"trajectory_planner is missing\); set base_local_planner to one of: "
+                                              r"dwa_local_planner/DWAPlannerROS"):
             MoveBasePlugins(move_base_params({}), footprint=footprint)
     else:
         pl = MoveBasePlugins(move_base_params({}), footprint=footprint)

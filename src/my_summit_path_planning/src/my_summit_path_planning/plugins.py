@@ -51,14 +51,14 @@ def trajectory_planner_limits(params):
 # -- planners ---------------------------------------------------------------------------------
 GLOBAL_PLANNERS.register("navfn/NavfnROS", lambda params, ctx, where: NavFn(navfn_config(params, where)))
 GLOBAL_PLANNERS.register("global_planner/GlobalPlanner", from_module(
-    "global_planner/GlobalPlanner", "global_planner", "GlobalPlanner",
+    "global_planner", "GlobalPlanner",
     lambda cls, params, ctx, where: cls.from_params(params, where)))
 
 LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS",
                         lambda params, ctx, where: DWAPlanner(dwa_config(params, where), ctx.footprint),
                         limits=dwa_limits)
 LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS", from_module(
-    "base_local_planner/TrajectoryPlannerROS", "trajectory_planner", "TrajectoryPlanner",
+    "trajectory_planner", "TrajectoryPlanner",
     lambda cls, params, ctx, where: cls.from_params(params, ctx.footprint, where)),
     limits=trajectory_planner_limits)
 
