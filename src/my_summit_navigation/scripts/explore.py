@@ -53,6 +53,7 @@ from summit_nav_common.geometry import quaternion_to_yaw
 from my_summit_navigation import frontiers as fr
 from my_summit_navigation.exploration import Explore
 
+
 class ExploreNode:
     """The ROS side of exploration.Explore: parameters, topics, the move_base client."""
 
