@@ -5,7 +5,8 @@
 
 Reads move_base's global costmap (on slam_gmapping's growing map), picks the cheapest
 frontier (my_summit_navigation.frontiers: potential_scale x travel distance - gain_scale
-x size), sends move_base a goal there and repeats at planner_frequency. A goal move_base
+x size), sends move_base a goal there and repeats at planner_frequency. The decisions of
+each round are my_summit_navigation.exploration.Explore's; this node adapts ROS to it. A goal move_base
 aborts, or one with no progress for progress_timeout, is blacklisted (the timer runs on
 when the choice flips back to a goal it was driving to moments ago: frontiers.GoalProgress);
 one the robot comes within REACHED of, its frontier in the laser's view, counts as
@@ -50,47 +51,29 @@ from std_msgs.msg import Bool, String
 
 from summit_nav_common.geometry import quaternion_to_yaw
 from my_summit_navigation import frontiers as fr
-
-SUCCEEDED, ABORTED = 3, 4
-# [m] this near the goal counts as there: what can be seen from it has been seen. Beside a
-# wall move_base may be unable to turn to the goal heading (DWA: "cannot rotate to the
-# goal heading") and never report the goal reached; explore waited progress_timeout there
-# and blacklisted it as failed, or move_base aborted it (3 of 5 built-in runs lost time so).
-# Only with the frontier in the laser's view (frontiers.in_view): the first goal, the
-# 90 deg behind the robot at its spawn, lies next to it, and counted as reached at once it
-# was never looked at (a 2-3% wedge of the two-room world left unknown, 1 CI run of 3).
-REACHED = 0.3
-SAME_GOAL = 0.5      # [m] a frontier goal this close to the active one keeps it
-EMPTY_ROUNDS = 4     # planning rounds in a row without a frontier before it is over
+from my_summit_navigation.exploration import Explore
 
 
-class Explore:
+class ExploreNode:
+    """The ROS side of exploration.Explore: parameters, topics, the move_base client."""
+
     def __init__(self):
         self.base_frame = rospy.get_param("~robot_base_frame", "base_footprint")
         self.period = 1.0 / max(1e-3, float(rospy.get_param("~planner_frequency", 0.33)))
-        self.progress_timeout = float(rospy.get_param("~progress_timeout", 30.0))
-        self.params = fr.FrontierParams(potential_scale=float(rospy.get_param("~potential_scale", 3.0)),
-                                        gain_scale=float(rospy.get_param("~gain_scale", 1.0)),
-                                        min_frontier_size=float(rospy.get_param("~min_frontier_size", 0.75)),
-                                        goal_margin=float(rospy.get_param("~goal_margin", 0.3)),
-                                        goal_search=float(rospy.get_param("~goal_search", 1.0)))
+        params = fr.FrontierParams(potential_scale=float(rospy.get_param("~potential_scale", 3.0)),
+                                   gain_scale=float(rospy.get_param("~gain_scale", 1.0)),
+                                   min_frontier_size=float(rospy.get_param("~min_frontier_size", 0.75)),
+                                   goal_margin=float(rospy.get_param("~goal_margin", 0.3)),
+                                   goal_search=float(rospy.get_param("~goal_search", 1.0)))
+        self.explore = Explore(params, progress_timeout=float(rospy.get_param("~progress_timeout", 30.0)),
+                               stall_hold=float(rospy.get_param("~stall_hold", 5.0)),
+                               stuck_goals=int(rospy.get_param("~stuck_goals", 6)),
+                               stuck_distance=float(rospy.get_param("~stuck_distance", 0.5)))
         self.save_base = rospy.get_param("~save_map", os.path.join(rospkg.get_ros_home(), "explored_map"))
         self.max_time = float(rospy.get_param("~max_time", 0.0))
-        self.stall_hold = float(rospy.get_param("~stall_hold", 5.0))
-        self.stuck = fr.StuckWatch(int(rospy.get_param("~stuck_goals", 6)),
-                                   float(rospy.get_param("~stuck_distance", 0.5)))
-        self.lock = threading.Lock()
+        self.lock = threading.Lock()   # the Explore, shared with the action client's done callback
         self.costmap = None
         self.map_msg = None
-        self.blacklist = fr.Blacklist(self.params.blacklist_radius)
-        self.goal = None            # (x, y) of the active goal
-        self.goal_centroid = None   # (x, y) of its frontier's centroid
-        self.goal_state = None
-        # no progress for progress_timeout towards a goal, kept across goal switches
-        self.progress = fr.GoalProgress(self.progress_timeout, same=SAME_GOAL)
-        self.sent = 0
-        self.failed = 0             # goals aborted or without progress
-        self.empty_rounds = 0       # planning rounds in a row that found no frontier
         self.tf = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf)
         self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
@@ -109,48 +92,12 @@ class Explore:
 
     def _on_done(self, state, _result):
         with self.lock:
-            self.goal_state = state
+            self.explore.goal_done(state)
 
-    def robot_pose(self):
-        """(x, y, yaw) of the robot in the costmap's frame."""
-        tr = self.tf.lookup_transform(self.costmap.header.frame_id, self.base_frame, rospy.Time(0),
-                                      rospy.Duration(1.0)).transform
+    def robot_pose(self, frame):
+        """(x, y, yaw) of the robot in frame."""
+        tr = self.tf.lookup_transform(frame, self.base_frame, rospy.Time(0), rospy.Duration(1.0)).transform
         return tr.translation.x, tr.translation.y, quaternion_to_yaw(tr.rotation)
-
-    def send(self, frontier, robot):
-        gx, gy = frontier.goal
-        # arrive heading the way the robot drives there (no turn on the spot beside a wall
-        # at the end; the 270 deg laser sees the frontier ahead anyway), or facing the
-        # frontier when it would be behind
-        yaw = fr.goal_heading(robot, frontier.goal, frontier.centroid)
-        goal = MoveBaseGoal()
-        goal.target_pose.header.frame_id = self.costmap.header.frame_id
-        goal.target_pose.header.stamp = rospy.Time.now()
-        goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = gx, gy
-        goal.target_pose.pose.orientation.z, goal.target_pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
-        with self.lock:
-            self.goal, self.goal_state = (gx, gy), None
-            self.goal_centroid = frontier.centroid
-        again = self.progress.start((gx, gy), rospy.Time.now().to_sec())
-        self.sent += 1
-        self.client.send_goal(goal, done_cb=self._on_done)
-        rospy.loginfo(f"explore: goal {self.sent}: frontier of {frontier.size:.1f} m at ({gx:.2f}, {gy:.2f}), "
-                      f"{frontier.distance:.1f} m away" + (" (again: its progress timer runs on)" if again else ""))
-
-    def give_up_goal(self, why, robot, no_progress=False):
-        """Blacklist the active goal; returns the reason exploration is over when the
-        robot, not the goal, is the problem (see StuckWatch), else None. Only goals given
-        up for no progress count: move_base aborts a goal in an obstacle at once."""
-        rospy.logwarn(f"explore: blacklisting ({self.goal[0]:.2f}, {self.goal[1]:.2f}): {why} "
-                      f"(robot at ({robot[0]:.2f}, {robot[1]:.2f}))")
-        self.blacklist.add(self.goal, no_progress=no_progress)
-        self.failed += 1
-        self.client.cancel_goal()
-        self.goal = None
-        if no_progress and self.stuck.given_up(robot):
-            return (f"the robot is stuck at ({robot[0]:.2f}, {robot[1]:.2f}): {self.stuck.goals} goals in a row "
-                    f"given up without it moving {self.stuck.distance:.1f} m")
-        return None
 
     def step(self):
         """One planning round; returns the reason exploration is over, or None."""
@@ -160,83 +107,36 @@ class Explore:
             rospy.loginfo_throttle(10.0, "explore: waiting for the global costmap")
             return None
         try:
-            pose = self.robot_pose()
+            pose = self.robot_pose(cm.header.frame_id)
         except tf2_ros.TransformException as e:
             rospy.logwarn_throttle(10.0, f"explore: no robot pose: {e}")
             return None
-        robot = pose[:2]
-        now = rospy.Time.now().to_sec()
-        self.stuck.update(robot)
-        # the active goal: ended, or no progress?
-        if self.goal is not None:
-            over = None
-            if self.goal_state == ABORTED:
-                over = self.give_up_goal("move_base aborted it", robot)
-            else:
-                d = math.hypot(robot[0] - self.goal[0], robot[1] - self.goal[1])
-                if self.goal_state is not None or (d <= REACHED and fr.in_view(pose, self.goal_centroid)):
-                    # reached (or ended otherwise), or within REACHED and facing the frontier
-                    # (the next goal preempts it): what can be seen from there has been
-                    # seen; a frontier whose goal falls here again is a pocket the laser
-                    # cannot fill
-                    self.blacklist.add(self.goal)
-                    self.goal = None
-                elif self.progress.update(d, now):
-                    over = self.give_up_goal(f"no progress for {self.progress_timeout:.0f} s", robot,
-                                             no_progress=True)
-            if over is not None:
-                return over
         info = cm.info
         grid = np.asarray(cm.data, np.int16).reshape(info.height, info.width)
-        found = fr.find_frontiers(grid, info.resolution, (info.origin.position.x, info.origin.position.y),
-                                  robot, self.params, self.blacklist)
-        pa = PoseArray()
-        pa.header = cm.header
-        for f in found:
-            p = Pose()
-            p.position.x, p.position.y, p.orientation.w = f.goal[0], f.goal[1], 1.0
-            pa.poses.append(p)
-        self.frontier_pub.publish(pa)
-        if not found:
-            if self.goal is not None and self.goal_state is None:
-                return None   # let the last goal finish: it may uncover more
-            # Only over when it stays so for EMPTY_ROUNDS rounds: the costmap follows a map
-            # published every few seconds, and the robot may stand in a cell the latest
-            # update marked (then nothing is reachable from it for a moment).
-            self.empty_rounds += 1
-            if self.empty_rounds < EMPTY_ROUNDS:
-                rospy.loginfo(f"explore: no frontier found ({self.empty_rounds}/{EMPTY_ROUNDS}); looking again")
-                return None
-            again = self.blacklist.second_chance()
-            if again:
-                # goals given up for no progress may have met a stall, not a closed way
-                for g in again:
-                    self.progress.forget(g)
-                self.empty_rounds = 0
-                rospy.logwarn(f"explore: no frontier left but {len(again)} given up for no progress: "
-                              "one more try at " + ", ".join(f"({x:.2f}, {y:.2f})" for x, y in again))
-                return None
-            beyond = fr.frontiers_out_of_reach(grid, info.resolution, (info.origin.position.x, info.origin.position.y),
-                                               robot, self.params)
-            if self.failed == 0 and beyond == 0:
-                return "no frontiers left"
-            why = [f"{self.failed} goals failed and blacklisted"] if self.failed else []
-            if beyond:
-                why.append(f"{beyond} frontier{'s' if beyond > 1 else ''} seen where the robot cannot pass")
-            return f"no reachable frontier left ({'; '.join(why)})"
-        self.empty_rounds = 0
-        if self.goal is not None and any(math.hypot(f.goal[0] - self.goal[0], f.goal[1] - self.goal[1]) < SAME_GOAL
-                                         for f in found[:3]):
-            return None
-        if self.goal is not None and 0 < self.stall_hold <= self.progress.stalled(now):
-            # A goal the robot has made no progress towards for stall_hold is kept until
-            # it is reached, aborted or given up: each new goal restarts move_base's
-            # recoveries, and on willow-full the choice flipped between two frontiers every
-            # 4-6 s while the robot stood wedged in a pocket, so move_base never got past
-            # its first recovery to the one that would have turned it out (turn_around).
-            return None
-        self.send(found[0], robot)
-        return None
+        with self.lock:
+            r = self.explore.step(rospy.Time.now().to_sec(), pose, grid, info.resolution,
+                                  (info.origin.position.x, info.origin.position.y))
+        for level, text in r.logs:
+            (rospy.logwarn if level == "warn" else rospy.loginfo)(f"explore: {text}")
+        if r.cancel:
+            self.client.cancel_goal()
+        if r.frontiers is not None:
+            pa = PoseArray()
+            pa.header = cm.header
+            for f in r.frontiers:
+                p = Pose()
+                p.position.x, p.position.y, p.orientation.w = f.goal[0], f.goal[1], 1.0
+                pa.poses.append(p)
+            self.frontier_pub.publish(pa)
+        if r.send is not None:
+            goal = MoveBaseGoal()
+            goal.target_pose.header.frame_id = cm.header.frame_id
+            goal.target_pose.header.stamp = rospy.Time.now()
+            goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = r.send.goal
+            o = goal.target_pose.pose.orientation
+            o.z, o.w = math.sin(r.goal_yaw / 2), math.cos(r.goal_yaw / 2)
+            self.client.send_goal(goal, done_cb=self._on_done)
+        return r.over
 
     def save(self):
         if not self.save_base:
@@ -273,7 +173,7 @@ class Explore:
             return
         self.client.cancel_all_goals()
         saved = self.save()
-        summary = (f"exploration over: {reason}; {self.sent} goals sent, {self.failed} failed, "
+        summary = (f"exploration over: {reason}; {self.explore.sent} goals sent, {self.explore.failed} failed, "
                    f"{rospy.Time.now().to_sec() - t0:.0f} s; map {saved}")
         rospy.loginfo("explore: " + summary)
         self.summary_pub.publish(String(summary))
@@ -282,7 +182,7 @@ class Explore:
 
 def main():
     rospy.init_node("explore")
-    Explore().run()
+    ExploreNode().run()
     rospy.spin()
 
 

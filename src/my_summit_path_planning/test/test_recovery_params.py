@@ -13,10 +13,12 @@ from my_summit_path_planning.costmap import Costmap2D, Footprint, LayeredCostmap
 from my_summit_path_planning.dwa import escape_limit, recovery_limit
 from my_summit_path_planning.layers import scan_to_observation
 from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
+from my_summit_path_planning.nav_core import PluginContext
+from my_summit_path_planning.plugins import default_recovery_sequence, recovery_sequence
 from my_summit_path_planning.recovery import (BACKUP_TYPE, CLEAR_TYPE, ROTATE_TYPE, TURN_AROUND_TYPE,
                                               BackUpRecovery, ClearCostmapRecovery, RotateRecovery,
-                                              TurnAroundRecovery, clear_costmap_layers, default_recovery_sequence,
-                                              plan_manoeuvre, recovery_sequence, retrace_distance)
+                                              TurnAroundRecovery, clear_costmap_layers, plan_manoeuvre,
+                                              retrace_distance)
 
 CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
 SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
@@ -72,7 +74,7 @@ def test_rotate_recovery_turns_once_and_stops_when_blocked(footprint):
     blocked.data[50:56, 58:60] = cv.LETHAL_OBSTACLE  # touches the footprint's corner sweep only
     rec.start((0.0, 0.0, 0.0))
     assert not rec.step((0.0, 0.0, 0.0), (0, 0, 0), blocked).ok
-    seq = default_recovery_sequence(None, None, footprint)
+    seq = default_recovery_sequence(PluginContext(footprint=footprint))
     assert [n for n, _ in seq] == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
 
 
@@ -179,9 +181,9 @@ def test_recovery_behaviors_list(footprint):
     spec = [{"name": "conservative_reset", "type": CLEAR_TYPE}, {"name": "back_up", "type": BACKUP_TYPE},
             {"name": "rotate_recovery", "type": ROTATE_TYPE},
             {"name": "aggressive_reset", "type": CLEAR_TYPE}]
+    ctx = PluginContext(footprint=footprint, controller_frequency=10.0, local_limits={"max_rotational_vel": 0.8})
     seq = recovery_sequence(spec, {"aggressive_reset": {"reset_distance": 1.84}, "back_up": {"backup_dist": 0.2}},
-                            None, None, footprint, rotate_kwargs={"max_rotational_vel": 0.8},
-                            backup_kwargs={"frequency": 10.0, "backup_dist": 0.5})
+                            ctx)
     assert [n for n, _ in seq] == ["conservative_reset", "back_up", "rotate_recovery", "aggressive_reset"]
     (_, cons), (_, back), (_, rot), (_, aggr) = seq
     assert isinstance(cons, ClearCostmapRecovery) and cons.reset_distance == 3.0      # clear_costmap_recovery's default
@@ -194,9 +196,9 @@ def test_recovery_behaviors_list(footprint):
                        ([{"name": "a", "type": "moveback_recovery/MoveBackRecovery"}], "unknown type"),
                        ([{"name": "b", "type": BACKUP_TYPE}], r"\(b\): backup_speed")]:
         with pytest.raises(ValueError, match=match):
-            recovery_sequence(bad, {"b": {"backup_speed": 0}}, None, None, footprint)
+            recovery_sequence(bad, {"b": {"backup_speed": 0}}, PluginContext(footprint=footprint))
     with pytest.raises(ValueError, match="unexpected keyword"):
-        recovery_sequence([{"name": "b", "type": BACKUP_TYPE}], {"b": {"speed": 0.1}}, None, None, footprint)
+        recovery_sequence([{"name": "b", "type": BACKUP_TYPE}], {"b": {"speed": 0.1}}, PluginContext(footprint=footprint))
 
 
 def test_config_files_load():
@@ -226,7 +228,7 @@ def test_bad_params_are_named(tmp_path, fname, ns, key, value, match):
     doc[ns][key] = value
     yaml.safe_dump(doc, open(tmp_path / fname, "w"))
     with pytest.raises(ParamError, match=match):
-        load_move_base_params(str(tmp_path))
+        getattr(load_move_base_params(str(tmp_path)), "dwa" if ns == "DWAPlannerROS" else "navfn")
 
 
 def test_old_dwa_names_accepted(tmp_path):
@@ -241,16 +243,16 @@ def test_old_dwa_names_accepted(tmp_path):
 
 def test_turn_around_in_the_recovery_list_and_its_bad_parameters(footprint):
     spec = [{"name": "turn_around", "type": TURN_AROUND_TYPE}, {"name": "back_up", "type": BACKUP_TYPE}]
-    seq = recovery_sequence(spec, {"turn_around": {"reach": 0.8}}, None, None, footprint,
-                            rotate_kwargs={"min_in_place_rotational_vel": 0.4, "max_rotational_vel": 0.8},
-                            backup_kwargs={"frequency": 10.0, "acc_lim_x": 2.0})
+    ctx = PluginContext(footprint=footprint, controller_frequency=10.0,
+                        local_limits={"min_in_place_rotational_vel": 0.4, "max_rotational_vel": 0.8, "acc_lim_x": 2.0})
+    seq = recovery_sequence(spec, {"turn_around": {"reach": 0.8}}, ctx)
     (_, turn), _ = seq
     assert isinstance(turn, TurnAroundRecovery) and turn.search["reach"] == 0.8
     assert turn.frequency == 10.0 and turn.rot_vel == 0.4           # move_base's rate, DWA's min_vel_theta
     for own, match in [({"speed": 0}, "speed"), ({"keep": -0.01}, "keep"), ({"replans": 1.5}, "replans"),
                        ({"reach": float("nan")}, "reach")]:
         with pytest.raises(ValueError, match=r"\(t\): " + match):
-            recovery_sequence([{"name": "t", "type": TURN_AROUND_TYPE}], {"t": own}, None, None, footprint)
+            recovery_sequence([{"name": "t", "type": TURN_AROUND_TYPE}], {"t": own}, PluginContext(footprint=footprint))
 
 
 def _pocket(footprint, back):

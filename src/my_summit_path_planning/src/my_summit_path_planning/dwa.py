@@ -630,10 +630,14 @@ class DWAPlanner:
             self.latency = min(MAX_LATENCY, max(self.config.sim_period, float(seconds)))
 
     def set_plan(self, plan, goal_yaw):
-        """A new global plan: (N, 2) points [m] in the costmap frame, goal heading [rad]."""
+        """A new global plan: (N, 2) points [m] in the costmap frame, goal heading [rad].
+        Once the xy goal is latched the robot only turns on the spot: later plans are
+        ignored."""
         plan = np.asarray(plan, dtype=np.float64)[:, :2]
         if len(plan) == 0 or not np.isfinite(plan).all() or not math.isfinite(goal_yaw):
             raise ValueError("the plan must be a non-empty list of finite points and goal_yaw finite")
+        if self.xy_latched and self.plan is not None:
+            return
         new_goal = self.plan is None or np.hypot(*(self.plan[-1] - plan[-1])) > 1e-6 \
             or abs(wrap_angle(goal_yaw - self.goal_yaw)) > 1e-6
         self.plan = plan
@@ -707,6 +711,8 @@ class DWAPlanner:
             # it: fall back to escape mode (no clearance loss, slow reversing allowed).
             res = self._dwa_step(pose, velocity, costmap, force_escape=True)
         return res
+
+    compute_velocity_commands = compute_velocity   # nav_core's name (BaseLocalPlanner)
 
     def _dwa_step(self, pose, velocity, costmap, force_escape):
         """Sample, simulate, score; escape mode when forced or when the robot needs it."""

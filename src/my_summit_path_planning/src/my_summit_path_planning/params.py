@@ -1,9 +1,11 @@
-"""Typed configs from move_base's YAML parameter layout, with clear errors.
+"""Typed configs from move_base's parameter namespace, with clear errors.
 
 Reference: the parameter pages of move_base, costmap_2d, navfn and dwa_local_planner
-(wiki.ros.org) and the course's file layout: costmap_common_params.yaml is loaded into
-both the ``global_costmap`` and ``local_costmap`` namespaces, navfn's parameters live
-under ``NavfnROS``, DWA's under ``DWAPlannerROS``.
+(wiki.ros.org). move_base's own parameters sit at ~, costmap_2d's under ~global_costmap
+and ~local_costmap, each plugin's under its own namespace (~NavfnROS, ~DWAPlannerROS,
+~<recovery name>); every one is optional, with the real node's default. The course's
+file layout (load_move_base_params): costmap_common_params.yaml is loaded into both
+costmap namespaces.
 
 Each parameter is declared once, in its dataclass, with type, unit and default. An
 unknown name or a value of the wrong type raises ParamError naming the file section,
@@ -39,10 +41,10 @@ class ParamError(ValueError):
 
 @dataclass
 class MoveBaseConfig:
-    """move_base's own parameters."""
+    """move_base's own parameters, with the real node's defaults (wiki.ros.org/move_base)."""
 
     base_global_planner: str = "navfn/NavfnROS"
-    base_local_planner: str = "dwa_local_planner/DWAPlannerROS"
+    base_local_planner: str = "base_local_planner/TrajectoryPlannerROS"
     recovery_behaviors: list = None        # None: move_base's default sequence
     controller_frequency: float = 20.0     # [Hz]
     planner_patience: float = 5.0          # [s]
@@ -50,15 +52,23 @@ class MoveBaseConfig:
     conservative_reset_dist: float = 3.0   # [m]
     recovery_behavior_enabled: bool = True
     clearing_rotation_allowed: bool = True
-    shutdown_costmaps: bool = False
+    shutdown_costmaps: bool = False        # accepted; costmaps always run (logged as ignored)
     oscillation_timeout: float = 0.0       # [s] 0 = off
     oscillation_distance: float = 0.5      # [m]
     planner_frequency: float = 0.0         # [Hz] 0 = plan only on new goals
     max_planning_retries: int = -1         # -1 = unlimited
-    # ours: a folder; each time DWA finds no valid command for controller_patience, the
-    # controller's inputs (local costmap, pose, velocity, planner state) are pickled there
-    # for an offline replay (at most DEBUG_DUMPS per run). Empty: off.
+    make_plan_clear_costmap: bool = True   # accepted; ~make_plan plans on the costmap as it is (ignored)
+    make_plan_add_unreachable_goal: bool = True  # accepted; ~make_plan returns no plan instead (ignored)
+    # ours: a folder; each time the local planner finds no valid command for
+    # controller_patience, the controller's inputs (local costmap, pose, velocity, planner
+    # state) are pickled there for an offline replay (at most DEBUG_DUMPS per run). Empty: off.
     debug_dump_dir: str = ""
+
+
+# move_base parameters the real node reads and this one accepts without acting on them:
+# each with the value that matches what this node does (another value is logged as ignored).
+IGNORED_MOVE_BASE_PARAMS = {"shutdown_costmaps": False, "make_plan_clear_costmap": False,
+                            "make_plan_add_unreachable_goal": False}
 
 
 @dataclass
@@ -210,15 +220,51 @@ def build_costmap(cfg, where="costmap", log=None):
 
 @dataclass
 class MoveBaseParams:
-    """Everything move_base reads, typed."""
+    """Everything move_base reads, typed: its own parameters, its two costmaps, and every
+    other sub-namespace as a dict (the planners' and the recovery behaviours' own
+    namespaces, read by each plugin; see plugins.py)."""
 
     move_base: MoveBaseConfig
     global_costmap: CostmapConfig
     local_costmap: CostmapConfig
-    navfn: NavfnConfig
-    dwa: DWAConfig
-    # each custom recovery behaviour's own namespace: {name: {param: value}}
-    recovery_params: dict = field(default_factory=dict)
+    namespaces: dict = field(default_factory=dict)   # {name: {param: value}}
+    ignored: tuple = ()      # parameters given a value asking for what this node does not do
+
+    def namespace(self, name):
+        """The parameters under ~name ({} when missing: the plugin's defaults)."""
+        return dict(self.namespaces.get(name) or {})
+
+    @property
+    def navfn(self):
+        """NavfnConfig of ~NavfnROS."""
+        return navfn_config(self.namespace("NavfnROS"), "NavfnROS")
+
+    @property
+    def dwa(self):
+        """DWAConfig of ~DWAPlannerROS."""
+        return dwa_config(self.namespace("DWAPlannerROS"), "DWAPlannerROS")
+
+
+def move_base_params(ns, where="move_base"):
+    """MoveBaseParams from move_base's private namespace as a dict (what
+    rospy.get_param("~") returns). Every parameter is optional: a missing costmap or
+    plugin namespace means its defaults, as in the real move_base. ParamError naming the
+    parameter for an unknown move_base parameter or a wrong type."""
+    if ns is None:
+        ns = {}
+    if not isinstance(ns, dict):
+        raise ParamError(f"{where}: expected a namespace of parameters, got {ns!r}")
+    own = {k: v for k, v in ns.items() if not isinstance(v, dict)}
+    subs = {k: v for k, v in ns.items() if isinstance(v, dict)}
+    mb = from_dict(MoveBaseConfig, own, where)
+    if mb.recovery_behaviors is not None and not isinstance(mb.recovery_behaviors, list):
+        raise ParamError(f"{where}: 'recovery_behaviors' must be a list of {{name, type}}, "
+                         f"got {mb.recovery_behaviors!r}")
+    costmaps = {name: costmap_config(subs.pop(name, {}), f"{where}/{name}")
+                for name in ("global_costmap", "local_costmap")}
+    return MoveBaseParams(move_base=mb, namespaces=subs,
+                          ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v),
+                          **costmaps)
 
 
 def _read(path):
@@ -237,7 +283,9 @@ def _read(path):
 
 
 def load_move_base_params(config_dir):
-    """Read the course's six YAML files from config_dir, as move_base.launch loads them."""
+    """Read the course's six YAML files from config_dir into move_base's namespace, as
+    move_base.launch loads them (the common file into both costmaps), then
+    move_base_params."""
     docs = {}
     for name in CONFIG_FILES:
         path = os.path.join(config_dir, name)
@@ -245,24 +293,12 @@ def load_move_base_params(config_dir):
             raise ParamError(f"{path}: missing (expected the files {CONFIG_FILES})")
         docs[name] = _read(path)
     common = docs["costmap_common_params.yaml"]
-    costmaps = {}
-    for ns, fname in (("global_costmap", "global_costmap_params.yaml"),
-                      ("local_costmap", "local_costmap_params.yaml")):
-        if ns not in docs[fname]:
-            raise ParamError(f"{fname}: expected the '{ns}' namespace at the top")
-        merged = _deep_merge(common, docs[fname][ns])
-        costmaps[ns] = costmap_config(merged, f"{fname}: {ns}")
-    nav_doc = docs["navfn_global_planner_params.yaml"]
-    dwa_doc = docs["dwa_local_planner_params.yaml"]
-    if "NavfnROS" not in nav_doc:
-        raise ParamError("navfn_global_planner_params.yaml: expected the 'NavfnROS' namespace")
-    if "DWAPlannerROS" not in dwa_doc:
-        raise ParamError("dwa_local_planner_params.yaml: expected the 'DWAPlannerROS' namespace")
-    return MoveBaseParams(
-        move_base=from_dict(MoveBaseConfig, docs["move_base_params.yaml"], "move_base_params.yaml"),
-        global_costmap=costmaps["global_costmap"], local_costmap=costmaps["local_costmap"],
-        navfn=navfn_config(nav_doc["NavfnROS"], "navfn_global_planner_params.yaml: NavfnROS"),
-        dwa=dwa_config(dwa_doc["DWAPlannerROS"], "dwa_local_planner_params.yaml: DWAPlannerROS"))
+    ns = dict(docs["move_base_params.yaml"])
+    for name in ("global_costmap", "local_costmap"):
+        ns[name] = _deep_merge(ns.get(name) or {}, common)
+    for name in CONFIG_FILES[2:]:
+        ns = _deep_merge(ns, docs[name])
+    return move_base_params(ns, os.path.basename(os.path.normpath(config_dir)))
 
 
 def _deep_merge(base, over):

@@ -1,8 +1,9 @@
 """Live tuning of move_base with dynamic_reconfigure, under the real servers' names.
 
-- ``~DWAPlannerROS`` (cfg/DWAPlanner.cfg, dwa_local_planner's names and ranges): the DWA
-  configuration is swapped between two control cycles; ``restore_defaults`` brings back
-  the configuration move_base started with.
+- ``~DWAPlannerROS`` (cfg/DWAPlanner.cfg, dwa_local_planner's names and ranges), when
+  the local planner is dwa_local_planner/DWAPlannerROS: the DWA configuration is swapped
+  between two control cycles (the running planner's and the next goals');
+  ``restore_defaults`` brings back the configuration move_base started with.
 - ``~global_costmap/<inflation layer>`` and ``~local_costmap/<inflation layer>``
   (cfg/InflationPlugin.cfg, costmap_2d's): the layer's parameters change and the whole
   costmap is re-inflated on its next update.
@@ -19,6 +20,8 @@ import rospy
 from my_summit_path_planning.layers import InflationLayer
 from my_summit_path_planning.params import ParamError, dwa_config
 from summit_nav_common.ros.reconfigure import StrictServer
+
+DWA_TYPE = "dwa_local_planner/DWAPlannerROS"
 
 
 class _Callback:
@@ -55,26 +58,29 @@ class _Callback:
 
 
 class DWAReconfigure(_Callback):
-    """~DWAPlannerROS: swaps the DWA configuration (node.p.dwa and the running planner's)
-    under node.lock."""
+    """~DWAPlannerROS: swaps the DWA configuration of the running local planner
+    (node.core.local_planner) and of the ones move_base makes for the next goals
+    (node.plugins.local_params), under node.lock."""
 
     name = "DWAPlannerROS"
 
     def __init__(self, node):
         super().__init__()
         self.node = node
-        self.startup = node.dwa.config
+        self.startup = dwa_config(node.plugins.local_params)
 
     def current(self):
-        return dataclasses.asdict(self.node.dwa.config)
+        return dataclasses.asdict(dwa_config(self.node.plugins.local_params))
 
     def apply(self, changes):
-        new = dwa_config(dict(dataclasses.asdict(self.node.dwa.config), **changes))   # ParamError if unusable
+        new = dwa_config(dict(self.current(), **changes))   # ParamError if unusable
         with self.node.lock:
-            self.node.p.dwa = new          # move_base makes a fresh DWAPlanner from it per goal
-            self.node.dwa.config = new
-            osc = self.node.dwa.oscillation
-            osc.reset_dist, osc.reset_angle = new.oscillation_reset_dist, new.oscillation_reset_angle
+            self.node.plugins.local_params = dataclasses.asdict(new)   # each goal's fresh planner
+            planner = self.node.core.local_planner
+            if planner is not None:
+                planner.config = new
+                osc = planner.oscillation
+                osc.reset_dist, osc.reset_angle = new.oscillation_reset_dist, new.oscillation_reset_angle
 
     def defaults_changes(self):
         cur, start = self.current(), dataclasses.asdict(self.startup)
@@ -104,7 +110,9 @@ class InflationReconfigure(_Callback):
 def start_servers(node):
     """The dynamic_reconfigure servers of a move_base node (kept alive by the caller)."""
     from my_summit_path_planning.cfg import DWAPlannerConfig, InflationPluginConfig
-    servers = [StrictServer(DWAPlannerConfig, DWAReconfigure(node), namespace="~DWAPlannerROS")]
+    servers = []
+    if node.plugins.local_type == DWA_TYPE:
+        servers.append(StrictServer(DWAPlannerConfig, DWAReconfigure(node), namespace="~DWAPlannerROS"))
     for cm in (node.gcm, node.lcm):
         for layer in cm.layered.layers:
             if isinstance(layer, InflationLayer):

@@ -3,12 +3,9 @@
 Reference: ROS 1 navigation ``clear_costmap_recovery`` (reset_distance, layer_names,
 clearing the layer *outside* a reset_distance square centred on the robot) and
 ``rotate_recovery`` (a full turn in place at a speed bounded by the acceleration needed
-to stop, aborted when the footprint would hit something); move_base's default
-sequence: conservative reset (reset_distance = conservative_reset_dist), rotate,
-aggressive reset (reset_distance = 4 x circumscribed radius), rotate; and, as move_base
-does, a custom ``recovery_behaviors`` list of {name, type} with each behaviour's
-parameters in its own namespace (recovery_sequence). Our one addition to the types is
-back_up (``my_summit_path_planning/BackUpRecovery``, after Navigation2's BackUp
+to stop, aborted when the footprint would hit something). move_base's default sequence
+and its ``recovery_behaviors`` list are loaded by type string in plugins.py. Our
+additions to the types are back_up (``my_summit_path_planning/BackUpRecovery``, after Navigation2's BackUp
 behaviour): drive straight back a short way, checking the footprint behind; and
 turn_around (``my_summit_path_planning/TurnAroundRecovery``): a several-point turn out of
 a pocket, found by a uniform-cost search over short forward, backward and turning moves
@@ -16,8 +13,9 @@ a pocket, found by a uniform-cost search over short forward, backward and turnin
 then driven move by move.
 
 Pure: a recovery gets its costmaps, pose and velocity passed in and returns commands;
-the node publishes them. Each behaviour has the same small shape: ``start(pose)``, then
-``step(pose, velocity, costmap) -> RecoveryStep`` until ``done``.
+the node publishes them. Each behaviour has the same small shape (nav_core.RecoveryBehavior):
+``start(pose, trail)``, then ``step(pose, velocity, costmap) -> RecoveryStep`` until
+``done``.
 """
 import heapq
 import math
@@ -70,10 +68,13 @@ def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_
 
 
 class ClearCostmapRecovery:
-    """clear_costmap_recovery as a one-step behaviour over the global and local costmaps.
+    """clear_costmap_recovery: clear the global and local costmaps' obstacle layers outside
+    a reset_distance [m] square around the robot, in one step.
 
-    reset_distance [m]; layer_names; force_clear_all (aggressive variant clearing the
-    whole layers, as the brief of our move_base allows).
+    global_costmap, local_costmap: costmap handles (``layered``, ``lock``,
+    ``get_robot_pose()``; see nav_core.PluginContext) or None; each is cleared around the
+    robot's pose in its own frame. layer_names: the layers to clear; force_clear_all: clear
+    them whole (ours).
     """
 
     def __init__(self, global_costmap, local_costmap, reset_distance=3.0,
@@ -84,15 +85,22 @@ class ClearCostmapRecovery:
         self.force_clear_all = force_clear_all
         self.cleared = []
 
-    def start(self, pose):
-        self._pose = pose
+    def start(self, pose, trail=()):
+        """Nothing to prepare: the clearing is one step."""
 
     def step(self, pose, velocity=None, costmap=None):
-        self.cleared = []
+        """Clear each costmap around the robot's pose in it; done at once."""
+        self.cleared, missed = [], []
         for c in self.costmaps:
-            self.cleared += clear_costmap_layers(c, pose[:2], self.reset_distance,
-                                                 self.layer_names, self.force_clear_all)
-        return RecoveryStep(done=True)
+            robot = c.get_robot_pose()
+            if robot is None:
+                missed.append(getattr(c, "name", "a costmap"))
+                continue
+            with c.lock:
+                self.cleared += clear_costmap_layers(c.layered, robot[:2], self.reset_distance,
+                                                     self.layer_names, self.force_clear_all)
+        reason = f"clear costmap: no robot pose in {', '.join(missed)}: not cleared" if missed else ""
+        return RecoveryStep(done=True, reason=reason)
 
 
 def footprint_free(footprint, costmap, pose, x, y, th, limit=None):
@@ -148,7 +156,7 @@ class RotateRecovery:
         self.turned = 0.0
         self.prev_yaw = None
 
-    def start(self, pose):
+    def start(self, pose, trail=()):
         """Begin a full turn from pose (x, y, yaw)."""
         self.turned = 0.0
         self.prev_yaw = pose[2]
@@ -410,7 +418,7 @@ class TurnAroundRecovery:
         self.room = float(room)
         self.moves = None
 
-    def start(self, pose):
+    def start(self, pose, trail=()):
         """Begin: the moves are searched at the first step (it has the costmap)."""
         self.moves, self.move_start, self.steps, self.searches, self.start_pose = None, None, 0, 0, tuple(pose)
 
@@ -493,75 +501,8 @@ def _check_positive(**values):
             raise ValueError(f"{k}: expected a positive number, got {v!r}")
 
 
-def default_recovery_sequence(global_costmap, local_costmap, footprint, conservative_reset_dist=3.0,
-                              rotate_kwargs=None, clearing_rotation_allowed=True,
-                              layer_names=DEFAULT_LAYER_NAMES):
-    """move_base's default recoveries in order: [(name, behaviour), ...].
-
-    conservative_reset (reset_distance = conservative_reset_dist), rotate_recovery,
-    aggressive_reset (reset_distance = 4 x circumscribed radius), rotate_recovery; the
-    rotations are left out when clearing_rotation_allowed is false.
-    """
-    rk = rotate_kwargs or {}
-    seq = [("conservative_reset", ClearCostmapRecovery(global_costmap, local_costmap,
-                                                       conservative_reset_dist, layer_names))]
-    if clearing_rotation_allowed:
-        seq.append(("rotate_recovery", RotateRecovery(footprint, **rk)))
-    seq.append(("aggressive_reset", ClearCostmapRecovery(
-        global_costmap, local_costmap, AGGRESSIVE_RADIUS_FACTOR * footprint.circumscribed_radius,
-        layer_names)))
-    if clearing_rotation_allowed:
-        seq.append(("rotate_recovery", RotateRecovery(footprint, **rk)))
-    return seq
-
-
 CLEAR_TYPE = "clear_costmap_recovery/ClearCostmapRecovery"
 ROTATE_TYPE = "rotate_recovery/RotateRecovery"
 BACKUP_TYPE = "my_summit_path_planning/BackUpRecovery"
 TURN_AROUND_TYPE = "my_summit_path_planning/TurnAroundRecovery"
 RECOVERY_TYPES = (CLEAR_TYPE, ROTATE_TYPE, BACKUP_TYPE, TURN_AROUND_TYPE)
-
-
-def recovery_sequence(spec, behaviour_params, global_costmap, local_costmap, footprint, rotate_kwargs=None,
-                      backup_kwargs=None):
-    """move_base's recovery_behaviors list [{name, type}, ...] -> [(name, behaviour), ...].
-
-    behaviour_params: {name: {param: value}} (each behaviour's own namespace, as move_base
-    loads it: ~<name>/reset_distance, ...); clear_costmap_recovery reads reset_distance
-    (3.0 m), layer_names ([obstacle_layer]) and force_clear_all (false; ours); rotate_recovery
-    and back_up take rotate_kwargs / backup_kwargs (the local planner's limits) overridden
-    by their namespace. ValueError naming the entry when the list is malformed, a name
-    repeats or a type is unknown (move_base then logs it and uses its default sequence).
-    """
-    if not isinstance(spec, (list, tuple)) or not spec:
-        raise ValueError(f"recovery_behaviors: expected a non-empty list of {{name, type}}, got {spec!r}")
-    seq, names = [], set()
-    for i, entry in enumerate(spec):
-        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str) \
-                or not isinstance(entry.get("type"), str) or not entry["name"]:
-            raise ValueError(f"recovery_behaviors[{i}]: expected {{name: ..., type: ...}}, got {entry!r}")
-        name, kind = entry["name"], entry["type"]
-        if name in names:
-            raise ValueError(f"recovery_behaviors[{i}]: the name {name!r} is used twice")
-        names.add(name)
-        own = dict((behaviour_params or {}).get(name) or {})
-        try:
-            if kind == CLEAR_TYPE:
-                beh = ClearCostmapRecovery(global_costmap, local_costmap, float(own.pop("reset_distance", 3.0)),
-                                           tuple(own.pop("layer_names", DEFAULT_LAYER_NAMES)),
-                                           bool(own.pop("force_clear_all", False)))
-            elif kind == ROTATE_TYPE:
-                beh = RotateRecovery(footprint, **{**(rotate_kwargs or {}), **own})
-            elif kind == BACKUP_TYPE:
-                beh = BackUpRecovery(footprint, **{**(backup_kwargs or {}), **own})
-            elif kind == TURN_AROUND_TYPE:
-                rk = rotate_kwargs or {}
-                base = {k: v for k, v in {**(backup_kwargs or {}), **rk}.items()
-                        if k in ("frequency", "min_in_place_rotational_vel")}
-                beh = TurnAroundRecovery(footprint, **{**base, **own})
-            else:
-                raise ValueError(f"unknown type {kind!r} (known: {', '.join(RECOVERY_TYPES)})")
-        except (TypeError, ValueError) as e:
-            raise ValueError(f"recovery_behaviors[{i}] ({name}): {e}") from None
-        seq.append((name, beh))
-    return seq

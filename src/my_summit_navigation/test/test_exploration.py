@@ -1,0 +1,102 @@
+"""exploration.Explore, explore's round-by-round goal bookkeeping, with a fake clock."""
+import math
+
+import numpy as np
+
+from my_summit_navigation import exploration as ex
+from my_summit_navigation import frontiers as fr
+
+RES = 0.1            # [m/cell]
+PARAMS = fr.FrontierParams(min_frontier_size=0.5)
+
+
+def corridor_world():
+    """20 x 60 cells at 0.1 m: a corridor (rows 5..14) known up to column 30, unknown
+    beyond; walls (100) on rows 4 and 15. Its one frontier's goal is near (2.7, 1.0)."""
+    g = np.full((20, 60), -1, np.int16)
+    g[5:15, :30] = 0
+    g[4, :30] = 100
+    g[15, :30] = 100
+    return g
+
+
+def step(e, now, pose, grid):
+    return e.step(now, pose, grid, RES, (0.0, 0.0))
+
+
+def test_sends_the_cheapest_goal_then_keeps_it():
+    e = ex.Explore(PARAMS)
+    r = step(e, 0.0, (0.5, 1.0, 0.0), corridor_world())
+    assert r.send is not None and 2.6 <= r.send.goal[0] <= 2.8 and r.over is None and not r.cancel
+    gx, gy = r.send.goal                                            # heading the way it drives there
+    assert r.goal_yaw == math.atan2(gy - 1.0, gx - 0.5) and e.sent == 1 and e.goal == (gx, gy)
+    assert "goal 1: frontier of" in r.logs[0][1]
+    r = step(e, 3.0, (1.0, 1.0, 0.0), corridor_world())             # progress: the goal is kept
+    assert r.send is None and r.frontiers and not r.cancel and e.sent == 1
+
+
+def test_no_progress_gives_up_then_one_more_try_then_over():
+    e = ex.Explore(PARAMS, progress_timeout=10.0)
+    pose, g = (0.5, 1.0, math.pi), corridor_world()   # facing away: never counts as reached
+    step(e, 0.0, pose, g)
+    now = 0.0
+    while True:
+        now += 3.0
+        r = step(e, now, pose, g)
+        if r.cancel:
+            break
+        assert now < 20.0
+    assert 13.0 < now <= 16.0 and e.failed == 1 and e.goal is None   # 10 s after the first watched round (3 s)
+    assert "no progress for 10 s" in r.logs[0][1]
+    assert "no frontier found (1/4)" in r.logs[1][1]                  # the one frontier is blacklisted
+    rounds = [step(e, now + 3.0 * k, pose, g) for k in range(1, ex.EMPTY_ROUNDS + 1)]
+    assert all(x.send is None and x.over is None for x in rounds[:-1])
+    assert "one more try at (2.75, 0.95)" in rounds[-2].logs[0][1]    # its second chance
+    assert rounds[-1].send is not None and e.sent == 2                # sent again, its timer afresh
+    now += 3.0 * ex.EMPTY_ROUNDS
+    over = None
+    while over is None:
+        now += 3.0
+        over = step(e, now, pose, g).over
+        assert now < 100.0
+    assert over == "no reachable frontier left (2 goals failed and blacklisted)"
+
+
+def test_aborted_goal_is_given_up_at_once_and_not_counted_as_stuck():
+    e = ex.Explore(PARAMS, stuck_goals=1)
+    step(e, 0.0, (0.5, 1.0, 0.0), corridor_world())
+    e.goal_done(ex.ABORTED)
+    r = step(e, 1.0, (0.5, 1.0, 0.0), corridor_world())
+    assert r.cancel and e.failed == 1 and r.over is None and "move_base aborted it" in r.logs[0][1]
+
+
+def test_stuck_robot_ends_exploration():
+    e = ex.Explore(PARAMS, progress_timeout=5.0, stuck_goals=1)
+    pose = (0.5, 1.0, math.pi)
+    step(e, 0.0, pose, corridor_world())
+    r = step(e, 3.0, pose, corridor_world())
+    r = step(e, 9.0, pose, corridor_world())
+    assert r.cancel and r.over.startswith("the robot is stuck at (0.50, 1.00): 1 goals in a row")
+
+
+def test_reached_near_the_goal_facing_the_frontier():
+    e = ex.Explore(PARAMS)
+    g = corridor_world()
+    step(e, 0.0, (0.5, 1.0, 0.0), g)
+    gx, gy = e.goal
+    r = step(e, 5.0, (gx - 0.2, gy, 0.0), g)      # 0.2 m short, the frontier ahead
+    assert e.failed == 0 and not r.cancel
+    assert any(math.hypot(gx - x, gy - y) < 1e-9 for x, y in e.blacklist)   # looked at: not again
+    e2 = ex.Explore(PARAMS)
+    step(e2, 0.0, (0.5, 1.0, 0.0), g)
+    step(e2, 5.0, (gx - 0.2, gy, math.pi), g)      # as near, but facing away: still driving
+    assert e2.goal == (gx, gy)
+
+
+def test_all_known_ends_after_empty_rounds():
+    g = corridor_world()
+    g[g == -1] = 100
+    e = ex.Explore(PARAMS)
+    rs = [step(e, 3.0 * k, (0.5, 1.0, 0.0), g) for k in range(ex.EMPTY_ROUNDS)]
+    assert [r.over for r in rs] == [None] * (ex.EMPTY_ROUNDS - 1) + ["no frontiers left"]
+    assert rs[0].frontiers == [] and "looking again" in rs[0].logs[0][1]

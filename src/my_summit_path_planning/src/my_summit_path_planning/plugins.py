@@ -1,0 +1,219 @@
+"""move_base's plugins by type string: the registrations, and the recovery list's loading.
+
+Reference: move_base.cpp (loadRecoveryBehaviors, loadDefaultRecoveryBehaviors) and the
+plugin descriptions of navfn, global_planner, dwa_local_planner, base_local_planner,
+clear_costmap_recovery and rotate_recovery (wiki.ros.org). The interfaces and the
+Registry are in nav_core.
+
+Registered here:
+  base_global_planner  navfn/NavfnROS (navfn.NavFn), global_planner/GlobalPlanner
+                       (global_planner.GlobalPlanner, when that module is in the build)
+  base_local_planner   dwa_local_planner/DWAPlannerROS (dwa.DWAPlanner),
+                       base_local_planner/TrajectoryPlannerROS (trajectory_planner.
+                       TrajectoryPlanner, when that module is in the build)
+  recovery_behaviors   clear_costmap_recovery/ClearCostmapRecovery,
+                       rotate_recovery/RotateRecovery, and ours:
+                       my_summit_path_planning/BackUpRecovery, .../TurnAroundRecovery
+A registration is one line: ``REGISTRY.register(type, factory(params, ctx, where))``.
+"""
+from . import recovery
+from .dwa import DWAPlanner
+from .nav_core import PluginContext, PluginError, Registry, from_module, namespace_of, read_limits
+from .navfn import NavFn
+from .params import dwa_config, navfn_config
+
+GLOBAL_PLANNERS = Registry("base_global_planner")
+LOCAL_PLANNERS = Registry("base_local_planner")
+RECOVERY_BEHAVIORS = Registry("recovery_behaviors")
+
+
+# -- local planners' limits, which rotate_recovery and back_up move within ---------------------
+def dwa_limits(params):
+    """DWAPlannerROS's limits (its defaults where unset, old names accepted)."""
+    cfg = dwa_config(params)
+    return dict(acc_lim_th=cfg.acc_lim_theta, max_rotational_vel=cfg.max_vel_theta,
+                min_in_place_rotational_vel=cfg.min_vel_theta, yaw_goal_tolerance=cfg.yaw_goal_tolerance,
+                acc_lim_x=cfg.acc_lim_x)
+
+
+def trajectory_planner_limits(params):
+    """TrajectoryPlannerROS's limits, read as rotate_recovery reads them (its names, the
+    deprecated ones after, base_local_planner's defaults)."""
+    return read_limits(params, [
+        ("acc_lim_th", ("acc_lim_theta", "acc_lim_th"), 3.2),                       # [rad/s^2]
+        ("max_rotational_vel", ("max_vel_theta", "max_rotational_vel"), 1.0),       # [rad/s]
+        ("min_in_place_rotational_vel", ("min_in_place_vel_theta", "min_in_place_rotational_vel"), 0.4),
+        ("yaw_goal_tolerance", ("yaw_goal_tolerance",), 0.05),                      # [rad]
+        ("acc_lim_x", ("acc_lim_x",), 2.5),                                          # [m/s^2]
+    ])
+
+
+# -- planners ---------------------------------------------------------------------------------
+GLOBAL_PLANNERS.register("navfn/NavfnROS", lambda params, ctx, where: NavFn(navfn_config(params, where)))
+GLOBAL_PLANNERS.register("global_planner/GlobalPlanner", from_module(
+    "global_planner", "GlobalPlanner",
+    lambda cls, params, ctx, where: cls.from_params(params, where)))
+
+LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS",
+                        lambda params, ctx, where: DWAPlanner(dwa_config(params, where), ctx.footprint),
+                        limits=dwa_limits)
+LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS", from_module(
+    "trajectory_planner", "TrajectoryPlanner",
+    lambda cls, params, ctx, where: cls.from_params(params, ctx.footprint, where)),
+    limits=trajectory_planner_limits)
+
+
+# -- recovery behaviours ------------------------------------------------------------------------
+def _param(params, name, kind, default, where):
+    value = params.pop(name, default)
+    ok = isinstance(value, kind) and not (kind is not bool and isinstance(value, bool))
+    if not ok:
+        expected = {float: "float", bool: "bool"}.get(kind, getattr(kind, "__name__", str(kind)))
+        raise PluginError(f"{where}: '{name}' must be {expected}, got {value!r}")
+    return value
+
+
+def _clear_costmap(params, ctx, where):
+    reset = float(_param(params, "reset_distance", (int, float), 3.0, where))          # [m]
+    names = _param(params, "layer_names", list, list(recovery.DEFAULT_LAYER_NAMES), where)
+    if not all(isinstance(n, str) for n in names):
+        raise PluginError(f"{where}: 'layer_names' must be a list of strings, got {names!r}")
+    force = _param(params, "force_clear_all", bool, False, where)
+    return recovery.ClearCostmapRecovery(ctx.global_costmap, ctx.local_costmap, reset, tuple(names), force)
+
+
+def _rotate_kwargs(ctx):
+    lim = ctx.local_limits
+    return dict(frequency=ctx.controller_frequency,
+                **{k: lim[k] for k in ("acc_lim_th", "max_rotational_vel", "min_in_place_rotational_vel",
+                                       "yaw_goal_tolerance") if k in lim})
+
+
+RECOVERY_BEHAVIORS.register(recovery.CLEAR_TYPE, _clear_costmap)
+RECOVERY_BEHAVIORS.register(recovery.ROTATE_TYPE, lambda params, ctx, where: recovery.RotateRecovery(
+    ctx.footprint, **{**_rotate_kwargs(ctx), **params}))
+RECOVERY_BEHAVIORS.register(recovery.BACKUP_TYPE, lambda params, ctx, where: recovery.BackUpRecovery(
+    ctx.footprint, **{"frequency": ctx.controller_frequency,
+                      **{k: v for k, v in ctx.local_limits.items() if k == "acc_lim_x"}, **params}))
+RECOVERY_BEHAVIORS.register(recovery.TURN_AROUND_TYPE, lambda params, ctx, where: recovery.TurnAroundRecovery(
+    ctx.footprint, **{"frequency": ctx.controller_frequency,
+                      **{k: v for k, v in ctx.local_limits.items() if k == "min_in_place_rotational_vel"},
+                      **params}))
+
+
+def recovery_sequence(spec, namespaces, ctx):
+    """move_base's recovery_behaviors list [{name, type}, ...] -> [(name, behaviour), ...].
+
+    namespaces: {name: {param: value}}, each behaviour's own namespace (~<name>/...);
+    clear_costmap_recovery reads reset_distance (3.0 m), layer_names ([obstacle_layer])
+    and force_clear_all (false; ours); rotate_recovery, back_up and turn_around start from
+    the local planner's limits and move_base's controller_frequency (ctx), overridden by
+    their namespace. ValueError naming the entry when the list is malformed, a name
+    repeats, a type is unknown or a parameter is bad (move_base then logs it and uses its
+    default sequence).
+    """
+    if not isinstance(spec, (list, tuple)) or not spec:
+        raise ValueError(f"recovery_behaviors: expected a non-empty list of {{name, type}}, got {spec!r}")
+    seq, names = [], set()
+    for i, entry in enumerate(spec):
+        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str) \
+                or not isinstance(entry.get("type"), str) or not entry["name"]:
+            raise ValueError(f"recovery_behaviors[{i}]: expected {{name: ..., type: ...}}, got {entry!r}")
+        name, kind = entry["name"], entry["type"]
+        if name in names:
+            raise ValueError(f"recovery_behaviors[{i}]: the name {name!r} is used twice")
+        names.add(name)
+        try:
+            beh = RECOVERY_BEHAVIORS.create(kind, (namespaces or {}).get(name), ctx, name)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"recovery_behaviors[{i}] ({name}): {e}") from None
+        seq.append((name, beh))
+    return seq
+
+
+def default_recovery_sequence(ctx, conservative_reset_dist=3.0, clearing_rotation_allowed=True,
+                              namespaces=None):
+    """move_base's default recoveries in order: [(name, behaviour), ...].
+
+    conservative_reset (reset_distance = conservative_reset_dist [m]), rotate_recovery,
+    aggressive_reset (reset_distance = 4 x the circumscribed radius), rotate_recovery; the
+    rotations are left out when clearing_rotation_allowed is false. namespaces: the
+    behaviours' own namespaces (~conservative_reset/layer_names, ...); move_base sets
+    their reset_distance itself.
+    """
+    namespaces = namespaces or {}
+    spec = [{"name": "conservative_reset", "type": recovery.CLEAR_TYPE}]
+    if clearing_rotation_allowed:
+        spec.append({"name": "rotate_recovery", "type": recovery.ROTATE_TYPE})
+    spec.append({"name": "aggressive_reset", "type": recovery.CLEAR_TYPE})
+    ns = {"conservative_reset": {**(namespaces.get("conservative_reset") or {}),
+                                 "reset_distance": float(conservative_reset_dist)},
+          "aggressive_reset": {**(namespaces.get("aggressive_reset") or {}), "reset_distance":
+                               recovery.AGGRESSIVE_RADIUS_FACTOR * ctx.footprint.circumscribed_radius},
+          "rotate_recovery": namespaces.get("rotate_recovery") or {}}
+    seq = recovery_sequence(spec, ns, ctx)
+    if clearing_rotation_allowed:
+        # the same rotate_recovery runs twice, as in move_base
+        seq.append(seq[1])
+    return seq
+
+
+def planner_context(footprint, local_type, local_params, global_costmap=None, local_costmap=None,
+                    controller_frequency=20.0):
+    """The PluginContext move_base builds its plugins with (the local planner's limits
+    read from its namespace)."""
+    plugin = LOCAL_PLANNERS.resolve(local_type)
+    limits = plugin.limits(local_params or {}) if plugin.limits is not None else {}
+    return PluginContext(global_costmap=global_costmap, local_costmap=local_costmap, footprint=footprint,
+                         controller_frequency=controller_frequency, local_limits=limits)
+
+
+class MoveBasePlugins:
+    """The plugins of one move_base configuration (params.MoveBaseParams), loaded by type.
+
+    Builds a global and a local planner at once so that a bad type or parameter fails at
+    start (PluginError / ParamError naming it); make_global_planner() and
+    make_local_planner() build further ones (move_base gives each goal a fresh local
+    planner; the planner thread and ~make_plan each have their own global planner).
+    recoveries: [(name, behaviour), ...]; recovery_error: why the recovery_behaviors list
+    was refused ('' when it was used or not given), the defaults then standing in, as in
+    move_base. warn(text): where deprecation warnings go.
+    """
+
+    def __init__(self, p, global_costmap=None, local_costmap=None, footprint=None, warn=None):
+        mb = p.move_base
+        self.global_type = GLOBAL_PLANNERS.resolve(mb.base_global_planner, warn).type
+        self.local_type = LOCAL_PLANNERS.resolve(mb.base_local_planner, warn).type
+        self.global_name = namespace_of(self.global_type)
+        self.local_name = namespace_of(self.local_type)
+        self.global_params = p.namespace(self.global_name)
+        self.local_params = p.namespace(self.local_name)
+        if footprint is None and local_costmap is not None:
+            footprint = local_costmap.layered.footprint
+        self.ctx = planner_context(footprint, self.local_type, self.local_params, global_costmap, local_costmap,
+                                   mb.controller_frequency)
+        self.global_planner = self.make_global_planner()
+        self.local_planner = self.make_local_planner()
+        self.recovery_error = ""
+        self.recoveries = None
+        if mb.recovery_behaviors is not None:
+            try:
+                self.recoveries = recovery_sequence(mb.recovery_behaviors, p.namespaces, self.ctx)
+            except ValueError as e:
+                self.recovery_error = str(e)
+        if self.recoveries is None:
+            self.recoveries = default_recovery_sequence(self.ctx, mb.conservative_reset_dist,
+                                                        mb.clearing_rotation_allowed, p.namespaces)
+
+    def make_global_planner(self):
+        return GLOBAL_PLANNERS.create(self.global_type, self.global_params, self.ctx, self.global_name)
+
+    def make_local_planner(self):
+        return LOCAL_PLANNERS.create(self.local_type, self.local_params, self.ctx, self.local_name)
+
+    def goal_tolerance(self):
+        """(allow_unknown, default_tolerance [m]) of the global planner's namespace, with
+        navfn's and global_planner's common defaults (true, 0.0)."""
+        allow = self.global_params.get("allow_unknown", True)
+        tol = self.global_params.get("default_tolerance", 0.0)
+        return bool(allow), float(tol)

@@ -1,0 +1,305 @@
+"""MoveBaseCore, move_base's state machine, driven by a fake clock and fake plugins."""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from my_summit_path_planning.costmap import Costmap2D
+from my_summit_path_planning.move_base_core import (CLEARING, CONTROLLING, PLANNING, RECOVERY_FAILED, GoalError,
+                                                    MoveBaseCore, RateWatch, check_goal_cell, check_goal_pose)
+from my_summit_path_planning.cost_values import LETHAL_OBSTACLE
+from my_summit_path_planning.params import MoveBaseConfig
+from my_summit_path_planning.recovery import RecoveryStep
+
+DT = 0.05   # [s] control period of the fake clock (20 Hz)
+PLAN = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+
+
+@dataclass
+class Result:
+    cmd: tuple = (0.0, 0.0, 0.0)
+    ok: bool = True
+    reason: str = ""
+
+
+class FakeLocal:
+    """A local planner whose answers the test sets: ok / reason / reached."""
+
+    made = []
+
+    def __init__(self):
+        self.ok, self.reason, self.reached = True, "", False
+        self.plans, self.latency = [], None
+        FakeLocal.made.append(self)
+
+    def set_plan(self, plan, goal_yaw):
+        self.plans.append((np.array(plan), goal_yaw))
+
+    def compute_velocity_commands(self, pose, velocity, costmap):
+        return Result(cmd=(0.3, 0.0, 0.0) if self.ok else (0.0, 0.0, 0.0), ok=self.ok, reason=self.reason)
+
+    def is_goal_reached(self):
+        return self.reached
+
+    def set_control_latency(self, seconds):
+        self.latency = seconds
+
+
+class FakeRecovery:
+    """Done after `steps` steps, commanding a slow turn meanwhile; records its starts."""
+
+    def __init__(self, log, name, steps=2):
+        self.log, self.name, self.steps, self.left = log, name, steps, 0
+
+    def start(self, pose, trail=()):
+        self.log.append(self.name)
+        self.left = self.steps
+        self.trail = list(trail)
+
+    def step(self, pose, velocity, costmap):
+        self.left -= 1
+        return RecoveryStep(cmd=(0.0, 0.0, 0.5), done=self.left <= 0)
+
+
+class Run:
+    """A core, its fake clock and a robot pose the test moves."""
+
+    def __init__(self, **cfg):
+        self.config = MoveBaseConfig(**cfg)
+        self.started = []
+        self.recoveries = [(n, FakeRecovery(self.started, n)) for n in ("a", "b", "c")]
+        FakeLocal.made = []
+        self.core = MoveBaseCore(self.config, FakeLocal, self.recoveries)
+        self.now, self.pose = 100.0, (0.0, 0.0, 0.0)
+
+    @property
+    def local(self):
+        return self.core.local_planner
+
+    def goal(self, goal=(2.0, 0.0, 0.5)):
+        self.core.start_goal(goal, self.now)
+
+    def plan(self, ok=True):
+        req = self.core.plan_request()
+        assert req is not None, "the core wants no plan"
+        return self.core.on_plan(req[0], PLAN if ok else None, "" if ok else "blocked", self.now)
+
+    def cycle(self, g2l=(0.0, 0.0, 0.0)):
+        out = self.core.cycle(self.now, self.pose, self.pose, (0.0, 0.0, 0.0), None, g2l)
+        self.now += DT
+        return out
+
+    def cycles_until(self, seconds, g2l=(0.0, 0.0, 0.0)):
+        outs = []
+        end = self.now + seconds
+        while self.now < end:
+            outs.append(self.cycle(g2l))
+        return outs
+
+
+def test_plan_then_control_then_goal_reached():
+    r = Run()
+    r.goal()
+    assert r.core.state == PLANNING and r.core.plan_request() is not None
+    out = r.cycle()
+    assert out.cmd is None and out.end is None               # no plan yet: stand still
+    r.plan()
+    assert r.core.plan_request() is None                     # planner_frequency 0: once per goal
+    out = r.cycle(g2l=(1.0, -2.0, math.pi / 2))              # the local frame: global turned by 90 deg, shifted
+    assert r.core.state == CONTROLLING and out.cmd == (0.3, 0.0, 0.0)
+    plan, yaw = r.local.plans[0]
+    np.testing.assert_allclose(plan[-1], [1.0, 0.0], atol=1e-12)   # (2, 0) -> (1 - 0, -2 + 2)
+    assert yaw == pytest.approx(0.5 + math.pi / 2)
+    np.testing.assert_allclose(out.local_plan, plan)
+    r.local.reached = True
+    r.pose = (1.95, 0.02, 0.5)
+    out = r.cycle()
+    assert out.end[0] == "succeeded" and "0.054 m from the goal" in out.end[1]
+
+
+def test_a_fresh_local_planner_each_goal_and_stale_plans_dropped():
+    r = Run()
+    r.goal()
+    old_id = r.core.plan_request()[0]
+    r.goal((5.0, 5.0, 0.0))                                  # preempts the first goal
+    assert len(FakeLocal.made) == 2 and r.local is FakeLocal.made[1]
+    r.core.on_plan(old_id, PLAN, "", r.now)                  # the first goal's plan comes in late
+    r.cycle()
+    assert r.core.state == PLANNING and r.local.plans == []
+    r.core.stop()
+    assert r.core.plan_request() is None and r.cycle().cmd is None
+
+
+def test_planner_frequency_keeps_replanning_while_controlling():
+    r = Run(planner_frequency=2.0)
+    r.goal()
+    r.plan()
+    r.cycle()
+    assert r.core.state == CONTROLLING and r.core.plan_request() is not None
+    assert r.core.next_plan_delay(True, 0.1) == pytest.approx(0.4)
+    r.plan(ok=False)                                         # a failed replan while driving: the plan is kept
+    assert r.core.state == CONTROLLING and r.core.planning_retries == 0
+    assert Run().core.next_plan_delay(False, 0.0) > 0.0 and Run().core.next_plan_delay(True, 0.0) == 0.0
+
+
+def test_planner_patience_then_recoveries_in_order_then_abort():
+    r = Run(planner_patience=1.0)
+    r.goal()
+    for _ in range(int(1.0 / DT)):                           # failing for the whole patience
+        assert r.plan(ok=False)[0][1] == "no plan to the goal: blocked"
+        r.cycle()
+    assert r.core.state == PLANNING
+    r.now += DT
+    logs = r.plan(ok=False)
+    assert r.core.state == CLEARING and "starting recoveries" in logs[-1][1]
+    assert r.core.plan_request() is None                     # no planning while clearing
+    for _ in range(3):                                       # each recovery, then planning again (failing)
+        outs = [r.cycle() for _ in range(2)]
+        assert outs[0].cmd == (0.0, 0.0, 0.5) and outs[1].cmd is None   # turning, then a stop when done
+        assert r.core.state == PLANNING
+        r.now += 1.5
+        r.plan(ok=False)
+        assert r.core.state == CLEARING
+    assert r.started == ["a", "b", "c"]
+    out = r.cycle()
+    assert out.end == ("aborted", RECOVERY_FAILED["planning"] + " Last failure: blocked")
+
+
+def test_a_valid_plan_restarts_the_recovery_sequence():
+    r = Run(planner_patience=0.0)
+    r.goal()
+    r.now += DT
+    r.plan(ok=False)
+    r.cycle(), r.cycle()                                     # recovery a done
+    r.now += DT
+    r.plan(ok=False)
+    r.cycle()                                                # recovery b starts
+    assert r.started == ["a", "b"]
+    r.cycle()
+    r.plan(ok=True)                                          # a plan at last
+    r.cycle()
+    assert r.core.recovery_index == 0 and r.core.state == CONTROLLING
+    r.local.ok, r.local.reason = False, "stuck"
+    r.now += 20.0                                            # beyond controller_patience (15 s)
+    r.cycle()
+    assert r.core.state == CLEARING
+    r.cycle()
+    assert r.started == ["a", "b", "a"]                       # from the start again
+
+
+def test_max_planning_retries():
+    r = Run(max_planning_retries=2, planner_patience=100.0)
+    r.goal()
+    for _ in range(2):
+        r.plan(ok=False)
+        assert r.core.state == PLANNING
+    r.plan(ok=False)                                         # the third attempt is one too many
+    assert r.core.state == CLEARING and r.core.trigger == "planning"
+
+
+def test_controller_patience_replans_then_clears():
+    r = Run(controller_patience=1.0)
+    r.goal()
+    r.plan()
+    r.cycle()
+    r.local.ok, r.local.reason = False, "every trajectory collides"
+    out = r.cycle()
+    assert r.core.state == PLANNING and out.cmd is None and not out.dump   # within patience: plan again
+    assert "planning again" in out.logs[0][1] and out.logs[0][2]          # throttled
+    while r.core.state != CLEARING:
+        r.plan()
+        out = r.cycle()
+        assert r.now < 100.0 + 1.0 + 3 * DT
+    assert out.dump and r.core.failure == "every trajectory collides"
+
+
+def test_valid_command_resets_recoveries_after_a_control_failure():
+    r = Run(controller_patience=0.0)
+    r.goal()
+    r.plan()
+    r.cycle()
+    r.local.ok = False
+    r.now += DT
+    r.cycle()
+    assert r.core.state == CLEARING and r.core.trigger == "controlling"
+    r.cycle(), r.cycle()                                     # recovery a
+    assert r.core.recovery_index == 1
+    r.local.ok = True
+    r.plan()
+    r.cycle()
+    assert r.core.recovery_index == 0
+
+
+def test_oscillation_timeout_and_movement_resets_it():
+    r = Run(oscillation_timeout=2.0, oscillation_distance=0.5, recovery_behavior_enabled=False)
+    r.goal()
+    r.plan()
+    r.cycles_until(1.5)
+    r.pose = (0.6, 0.0, 0.0)                                 # moved far enough: the timer restarts
+    r.cycles_until(1.5)
+    assert r.core.state == CONTROLLING
+    outs = r.cycles_until(1.0)
+    said = [i for i, o in enumerate(outs) if any("oscillating" in t for _, t, _ in o.logs)]
+    assert said and 0.5 - 2 * DT <= said[0] * DT <= 0.5 + 2 * DT   # 2 s after the robot last moved
+    end = outs[said[0] + 1].end                                     # no recoveries: aborted at once
+    assert end[0] == "aborted" and end[1].startswith(RECOVERY_FAILED["oscillation"])
+    assert "(recovery_behavior_enabled is false)" in end[1]
+
+
+def test_oscillation_off_by_default():
+    r = Run()
+    assert r.config.oscillation_timeout == 0.0
+    r.goal()
+    r.plan()
+    r.cycles_until(120.0)
+    assert r.core.state == CONTROLLING
+
+
+def test_no_pose_stops_the_robot_and_latency_reaches_the_planner():
+    r = Run()
+    r.goal()
+    r.plan()
+    assert r.core.cycle(r.now, None, (0, 0, 0), (0, 0, 0), None, (0, 0, 0)).cmd is None
+    r.cycle()
+    r.now += 0.2                                             # a late cycle
+    r.cycle()
+    assert r.local.latency == pytest.approx(0.2 + DT)
+
+
+def test_recovery_gets_the_trail():
+    r = Run(planner_patience=0.0)
+    r.goal()
+    for x in np.arange(0.0, 0.5, 0.01):
+        r.pose = (x, 0.0, 0.0)
+        r.cycle()
+    r.now += DT
+    r.plan(ok=False)
+    r.cycle()
+    trail = r.recoveries[0][1].trail
+    assert len(trail) >= 20 and trail[-1][0] == pytest.approx(0.49, abs=0.02)
+
+
+def test_rate_watch_says_once():
+    w = RateWatch(20.0)
+    assert w.update(0.04) is None
+    text = w.update(0.0712)
+    assert "missed its desired rate of 20.0000Hz" in text and "0.0712 seconds" in text
+    assert w.update(0.2) is None
+
+
+def test_goal_checks():
+    check_goal_pose((1.0, 2.0, 0.0), (0.0, 0.0, math.sin(0.3), math.cos(0.3)))
+    for pos, q, match in [((math.nan, 0, 0), (0, 0, 0, 1), "NaN"), ((0, 0, 0), (0, 0, 0, 2), "unit"),
+                          ((0, 0, 0), (math.sin(0.2), 0, 0, math.cos(0.2)), "about z")]:
+        with pytest.raises(GoalError, match=match):
+            check_goal_pose(pos, q)
+    m = Costmap2D(40, 40, 0.05, 0.0, 0.0)
+    m.data[18:23, 18:23] = LETHAL_OBSTACLE
+    assert check_goal_cell(m, (0.5, 0.5, 0.0), False, 0.0) == ((0.5, 0.5, 0.0), False)
+    with pytest.raises(GoalError, match="off the map"):
+        check_goal_cell(m, (5.0, 0.5, 0.0), False, 0.0)
+    with pytest.raises(GoalError, match="lethal cell"):
+        check_goal_cell(m, (1.025, 1.025, 0.0), False, 0.05)
+    (x, y, yaw), moved = check_goal_cell(m, (1.025, 1.025, 0.3), False, 0.2)
+    assert moved and yaw == 0.3 and math.hypot(x - 1.025, y - 1.025) == pytest.approx(0.15, abs=0.03)

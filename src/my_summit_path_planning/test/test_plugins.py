@@ -1,0 +1,229 @@
+"""The plugin registry by type string and move_base's parameters: every one optional."""
+import os
+
+import pytest
+
+from my_summit_path_planning import plugins
+from my_summit_path_planning.costmap import Footprint
+from my_summit_path_planning.dwa import DWAPlanner
+from my_summit_path_planning.nav_core import PluginContext, PluginError, Registry
+from my_summit_path_planning.navfn import NavFn
+from my_summit_path_planning.params import ParamError, load_move_base_params, move_base_params
+from my_summit_path_planning.plugins import GLOBAL_PLANNERS, MoveBasePlugins
+from my_summit_path_planning.recovery import ClearCostmapRecovery
+
+CONFIG = os.path.join(os.path.dirname(__file__), "..", "config")
+DWA = "dwa_local_planner/DWAPlannerROS"
+
+
+@pytest.fixture
+def footprint():
+    return Footprint.from_params([[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]], 0.46, 0.01)
+
+
+def test_no_parameters_at_all_means_the_real_defaults():
+    p = move_base_params({}, "/move_base")
+    mb = p.move_base
+    assert (mb.base_global_planner, mb.base_local_planner) == ("navfn/NavfnROS", "base_local_planner/TrajectoryPlannerROS")
+    assert (mb.planner_frequency, mb.controller_frequency, mb.planner_patience, mb.controller_patience) == \
+        (0.0, 20.0, 5.0, 15.0)
+    assert (mb.conservative_reset_dist, mb.oscillation_timeout, mb.oscillation_distance, mb.max_planning_retries) == \
+        (3.0, 0.0, 0.5, -1)
+    assert mb.recovery_behavior_enabled and mb.clearing_rotation_allowed and not mb.shutdown_costmaps
+    assert mb.recovery_behaviors is None
+    assert (p.global_costmap.global_frame, p.global_costmap.robot_base_frame) == ("map", "base_link")
+    assert p.navfn.allow_unknown is True and p.navfn.default_tolerance == 0.0
+    assert p.namespaces == {} and p.ignored == ()
+
+
+def test_ignored_parameters_are_named_when_they_ask_for_something():
+    assert move_base_params({"shutdown_costmaps": False}).ignored == ()
+    assert move_base_params({"shutdown_costmaps": True, "make_plan_clear_costmap": True}).ignored == \
+        ("shutdown_costmaps", "make_plan_clear_costmap")
+
+
+def test_missing_planner_namespaces_mean_defaults(footprint):
+    p = move_base_params({"base_local_planner": DWA})
+    pl = MoveBasePlugins(p, footprint=footprint)
+    assert isinstance(pl.global_planner, NavFn) and pl.global_planner.config.allow_unknown is True
+    assert isinstance(pl.local_planner, DWAPlanner) and pl.local_planner.config.max_vel_x == 0.55
+    assert [n for n, _ in pl.recoveries] == ["conservative_reset", "rotate_recovery", "aggressive_reset",
+                                             "rotate_recovery"]
+    (_, cons), (_, rot), (_, aggr), _ = pl.recoveries
+    assert cons.reset_distance == 3.0 and aggr.reset_distance == pytest.approx(4 * footprint.circumscribed_radius)
+    assert rot.max_rotational_vel == 1.0 and rot.acc_lim_th == 3.2     # DWA's defaults
+    assert pl.goal_tolerance() == (True, 0.0)
+    assert pl.make_local_planner() is not pl.local_planner
+
+
+def test_trajectory_planner_default_is_named_when_absent(footprint):
+    """move_base's default local planner: built when trajectory_planner is in the build,
+    else an error that says what is missing and what to set."""
+    try:
+        import my_summit_path_planning.trajectory_planner  # noqa: F401
+    except ModuleNotFoundError:
+        with pytest.raises(PluginError, match=r"base_local_planner: base_local_planner/TrajectoryPlannerROS is not "
+                                              r"available in this build \(its module my_summit_path_planning."
+                                              r"trajectory_planner is missing\); set base_local_planner to one of: "
+                                              r"dwa_local_planner/DWAPlannerROS"):
+            MoveBasePlugins(move_base_params({}), footprint=footprint)
+    else:
+        pl = MoveBasePlugins(move_base_params({}), footprint=footprint)
+        assert pl.local_type == "base_local_planner/TrajectoryPlannerROS" and pl.local_name == "TrajectoryPlannerROS"
+
+
+def test_course_config_unchanged(footprint):
+    p = load_move_base_params(CONFIG)
+    pl = MoveBasePlugins(p, footprint=footprint)
+    assert (pl.global_name, pl.local_name) == ("NavfnROS", "DWAPlannerROS")
+    assert pl.global_planner.config.allow_unknown is False and pl.goal_tolerance() == (False, 0.2)
+    assert pl.local_planner.config.max_vel_x == 1.0 and pl.local_planner.config.vth_samples == 40
+    rot = pl.recoveries[1][1]
+    assert (rot.max_rotational_vel, rot.acc_lim_th, rot.min_in_place_rotational_vel) == (3.0, 5.0, 0.3)
+    assert rot.frequency == 20.0
+
+
+@pytest.mark.parametrize("ns,match", [
+    ({"planner_patience": "5"}, r"/move_base: 'planner_patience' must be float, got '5'"),
+    ({"recovery_behavior_enabled": 1}, r"'recovery_behavior_enabled' must be bool"),
+    ({"max_planning_retries": 2.5}, r"'max_planning_retries' must be int"),
+    ({"base_global_planner": 3}, r"'base_global_planner' must be str"),
+    ({"planner_patiense": 5.0}, r"unknown parameter 'planner_patiense'"),
+    ({"recovery_behaviors": "rotate"}, r"'recovery_behaviors' must be a list"),
+    ({"global_costmap": {"resolution": "fine"}}, r"/move_base/global_costmap: 'resolution' must be float"),
+])
+def test_wrong_types_fail_at_once_naming_the_parameter(ns, match):
+    with pytest.raises(ParamError, match=match):
+        move_base_params(ns, "/move_base")
+
+
+@pytest.mark.parametrize("ns,match", [
+    ({"NavfnROS": {"allow_unknown": "yes"}}, r"NavfnROS: 'allow_unknown' must be bool"),
+    ({"DWAPlannerROS": {"max_vel_xx": 1.0}}, r"DWAPlannerROS: unknown parameter 'max_vel_xx'"),
+    ({"DWAPlannerROS": {"vx_samples": "many"}}, r"DWAPlannerROS: 'vx_samples' must be int"),
+    ({"base_global_planner": "carrot_planner/CarrotPlanner"},
+     r"base_global_planner: unknown type 'carrot_planner/CarrotPlanner'; known types are: "
+     r"global_planner/GlobalPlanner, navfn/NavfnROS"),
+    ({"base_local_planner": "teb_local_planner/TebLocalPlannerROS"},
+     r"known types are: .*dwa_local_planner/DWAPlannerROS"),
+])
+def test_plugin_errors_are_named(ns, match, footprint):
+    with pytest.raises(ParamError, match=match):
+        MoveBasePlugins(move_base_params({"base_local_planner": DWA, **ns}), footprint=footprint)
+
+
+def test_bare_class_name_resolves_with_a_warning(footprint):
+    said = []
+    pl = MoveBasePlugins(move_base_params({"base_global_planner": "NavfnROS", "base_local_planner": "DWAPlannerROS"}),
+                         footprint=footprint, warn=said.append)
+    assert (pl.global_type, pl.local_type) == ("navfn/NavfnROS", DWA)
+    assert len(said) == 2 and "'navfn/NavfnROS'" in said[0]
+
+
+def test_unused_planner_namespaces_are_left_alone(footprint):
+    """Another planner's namespace (a config shared between setups) is not read."""
+    p = move_base_params({"base_local_planner": DWA, "TrajectoryPlannerROS": {"whatever": 1},
+                          "GlobalPlanner": {"use_dijkstra": "no"}})
+    assert isinstance(MoveBasePlugins(p, footprint=footprint).local_planner, DWAPlanner)
+
+
+def test_a_bad_recovery_list_falls_back_to_the_defaults_with_its_reason(footprint):
+    p = move_base_params({"base_local_planner": DWA,
+                          "recovery_behaviors": [{"name": "slow", "type": "move_slow_and_clear/MoveSlowAndClear"}]})
+    pl = MoveBasePlugins(p, footprint=footprint)
+    assert "unknown type 'move_slow_and_clear/MoveSlowAndClear'" in pl.recovery_error
+    assert "rotate_recovery/RotateRecovery" in pl.recovery_error
+    assert [n for n, _ in pl.recoveries][0] == "conservative_reset"
+    p = move_base_params({"base_local_planner": DWA, "clearing_rotation_allowed": False,
+                          "conservative_reset": {"layer_names": ["obstacles"]}})
+    seq = MoveBasePlugins(p, footprint=footprint).recoveries
+    assert [n for n, _ in seq] == ["conservative_reset", "aggressive_reset"]
+    assert seq[0][1].layer_names == ("obstacles",) and seq[0][1].reset_distance == 3.0
+
+
+def test_registry_checks_the_interface_and_the_form():
+    reg = Registry("base_local_planner")
+    reg.register("fake/Half", lambda params, ctx, where: object())
+    with pytest.raises(PluginError, match=r"object lacks set_plan, compute_velocity_commands"):
+        reg.create("fake/Half", {}, PluginContext(), "Half")
+    with pytest.raises(ValueError, match="package/Class"):
+        reg.register("Half", lambda *a: None)
+    with pytest.raises(PluginError, match="expected a namespace"):
+        reg.create("fake/Half", [1, 2], PluginContext(), "Half")
+
+
+def test_a_planner_registers_in_one_line(footprint):
+    """As global_planner.GlobalPlanner will: from_params(params, where) with NavFn's make_plan."""
+
+    class Straight:
+        def __init__(self, step):
+            self.step = step
+
+        @classmethod
+        def from_params(cls, params, where):
+            return cls(params.get("step", 0.5))
+
+        def make_plan(self, costmap, start, goal, tolerance=None):
+            return NavFn().make_plan(costmap, start, goal, tolerance)
+
+    GLOBAL_PLANNERS.register("test_planners/Straight", lambda params, ctx, where: Straight.from_params(params, where))
+    try:
+        pl = MoveBasePlugins(move_base_params({"base_global_planner": "test_planners/Straight",
+                                               "base_local_planner": DWA, "Straight": {"step": 0.25}}),
+                             footprint=footprint)
+        assert isinstance(pl.global_planner, Straight) and pl.global_planner.step == 0.25
+        assert pl.global_name == "Straight"
+    finally:
+        del GLOBAL_PLANNERS.plugins["test_planners/Straight"]
+
+
+def test_global_planner_module_missing_is_named(footprint):
+    try:
+        import my_summit_path_planning.global_planner  # noqa: F401
+        pytest.skip("global_planner is in this build")
+    except ModuleNotFoundError:
+        pass
+    with pytest.raises(PluginError, match=r"global_planner/GlobalPlanner is not available in this build"):
+        MoveBasePlugins(move_base_params({"base_global_planner": "global_planner/GlobalPlanner",
+                                          "base_local_planner": DWA}), footprint=footprint)
+
+
+def test_trajectory_planner_limits_read_as_rotate_recovery_does():
+    lim = plugins.trajectory_planner_limits({"max_rotational_vel": 2.0, "acc_lim_theta": 4.0,
+                                             "min_in_place_vel_theta": 0.5})
+    assert lim == {"acc_lim_th": 4.0, "max_rotational_vel": 2.0, "min_in_place_rotational_vel": 0.5,
+                   "yaw_goal_tolerance": 0.05, "acc_lim_x": 2.5}
+    with pytest.raises(PluginError, match="'acc_lim_theta' must be float"):
+        plugins.trajectory_planner_limits({"acc_lim_theta": "fast"})
+
+
+class _Handle:
+    """A costmap handle as the node's CostmapROS: layered, lock, get_robot_pose."""
+
+    def __init__(self, layered, pose):
+        import threading
+        self.layered, self.lock, self.pose = layered, threading.RLock(), pose
+
+    def get_robot_pose(self):
+        return self.pose
+
+
+def test_clear_costmap_clears_each_costmap_around_its_own_pose(footprint):
+    from my_summit_path_planning import cost_values as cv
+    from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
+
+    def layered():
+        lc = LayeredCostmap.from_plugins([{"name": "obstacle_layer", "type": "costmap_2d::ObstacleLayer"}],
+                                         {"obstacle_layer": {"observation_sources": ""}},
+                                         Costmap2D(200, 200, 0.05, -5.0, -5.0), footprint)
+        lc.layer("obstacle_layer").grid.data[:] = cv.LETHAL_OBSTACLE
+        return lc
+
+    g, loc = layered(), layered()
+    rec = ClearCostmapRecovery(_Handle(g, (2.0, 0.0, 0.0)), _Handle(loc, (0.0, 0.0, 0.0)), reset_distance=1.0)
+    rec.start((0.0, 0.0, 0.0))
+    assert rec.step((0.0, 0.0, 0.0)).done and rec.cleared == ["obstacle_layer", "obstacle_layer"]
+    for lc, (x, y) in ((g, (2.0, 0.0)), (loc, (0.0, 0.0))):
+        lc.update_map(x, y, 0.0)
+        assert lc.master.cost_at(x + 0.45, y) == cv.LETHAL_OBSTACLE       # kept inside the square
+        assert lc.master.cost_at(x - 1.0, y) == cv.FREE_SPACE             # cleared outside
