@@ -177,17 +177,6 @@ def test_a_planner_registers_in_one_line(footprint):
         del GLOBAL_PLANNERS.plugins["test_planners/Straight"]
 
 
-def test_global_planner_module_missing_is_named(footprint):
-    try:
-        import my_summit_path_planning.global_planner  # noqa: F401
-        pytest.skip("global_planner is in this build")
-    except ModuleNotFoundError:
-        pass
-    with pytest.raises(PluginError, match=r"global_planner/GlobalPlanner is not available in this build"):
-        MoveBasePlugins(move_base_params({"base_global_planner": "global_planner/GlobalPlanner",
-                                          "base_local_planner": DWA}), footprint=footprint)
-
-
 def test_trajectory_planner_limits_read_as_rotate_recovery_does():
     lim = plugins.trajectory_planner_limits({"max_rotational_vel": 2.0, "acc_lim_theta": 4.0,
                                              "min_in_place_vel_theta": 0.5})
@@ -227,3 +216,15 @@ def test_clear_costmap_clears_each_costmap_around_its_own_pose(footprint):
         lc.update_map(x, y, 0.0)
         assert lc.master.cost_at(x + 0.45, y) == cv.LETHAL_OBSTACLE       # kept inside the square
         assert lc.master.cost_at(x - 1.0, y) == cv.FREE_SPACE             # cleared outside
+
+
+def test_planner_notes_name_unused_and_deprecated_parameters(footprint):
+    """A parameter the real planner accepts but ours does not use is said once, by name."""
+    pl = MoveBasePlugins(move_base_params({
+        "base_global_planner": "global_planner/GlobalPlanner",
+        "base_local_planner": "base_local_planner/TrajectoryPlannerROS",
+        "GlobalPlanner": {"no_such_knob": 1},
+        "TrajectoryPlannerROS": {"pdist_scale": 0.6, "no_such_knob": 2}}), footprint=footprint)
+    assert "~GlobalPlanner/no_such_knob is not a parameter of this planner; ignored" in pl.notes
+    assert "~TrajectoryPlannerROS/no_such_knob is not a parameter of this planner; ignored" in pl.notes
+    assert any("pdist_scale" in n for n in pl.notes if "ignored" not in n)

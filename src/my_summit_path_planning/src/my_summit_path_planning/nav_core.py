@@ -16,8 +16,6 @@ namespace's name for error messages. The registrations themselves are in
 my_summit_path_planning.plugins. An unknown type is a PluginError naming the known ones,
 as pluginlib's; a type whose module is not in this build says so.
 """
-import importlib
-import importlib.util
 from dataclasses import dataclass, field
 from typing import Callable, Dict, Optional, Protocol, Sequence, Tuple
 
@@ -122,10 +120,6 @@ class Registry:
     def known(self):
         return sorted(self.plugins)
 
-    def available(self):
-        """The known types whose code is in this build."""
-        return [t for t in self.known() if getattr(self.plugins[t].factory, "importable", lambda: True)()]
-
     def resolve(self, type_name, warn=None):
         """The registered Plugin for type_name; a bare class name ("NavfnROS") resolves to the
         one type with that class name, with a warning through warn(text), as move_base's
@@ -146,10 +140,6 @@ class Registry:
     def create(self, type_name, params, ctx, where, warn=None):
         """Build the plugin of type_name from its namespace's params (None or missing: {})."""
         plugin = self.resolve(type_name, warn)
-        if not getattr(plugin.factory, "importable", lambda: True)():
-            raise PluginError(f"{self.kind}: {plugin.type} is not available in this build (its module "
-                              f"{plugin.factory.module} is missing); set {self.kind} to one of: "
-                              f"{', '.join(self.available())}")
         if params is None:
             params = {}
         if not isinstance(params, dict):
@@ -166,20 +156,6 @@ def namespace_of(type_name):
     """The parameter namespace move_base gives a planner: the type's class part
     ("navfn/NavfnROS" -> "NavfnROS")."""
     return type_name.split("/")[-1]
-
-
-def from_module(module, attr, build):
-    """A factory for class attr of module (in this package), imported only when the type is
-    used: build(cls, params, ctx, where). Registry.create names the module when it is not
-    in this build."""
-    name = f"{__package__}.{module}"
-
-    def factory(params, ctx, where):
-        return build(getattr(importlib.import_module(name), attr), params, ctx, where)
-
-    factory.module = name
-    factory.importable = lambda: importlib.util.find_spec(name) is not None
-    return factory
 
 
 def read_limits(params, names: Sequence[Tuple[str, Sequence[str], float]]):

@@ -7,10 +7,9 @@ Registry are in nav_core.
 
 Registered here:
   base_global_planner  navfn/NavfnROS (navfn.NavFn), global_planner/GlobalPlanner
-                       (global_planner.GlobalPlanner, when that module is in the build)
+                       (global_planner.GlobalPlanner)
   base_local_planner   dwa_local_planner/DWAPlannerROS (dwa.DWAPlanner),
-                       base_local_planner/TrajectoryPlannerROS (trajectory_planner.
-                       TrajectoryPlanner, when that module is in the build)
+                       base_local_planner/TrajectoryPlannerROS (trajectory_planner.TrajectoryPlanner)
   recovery_behaviors   clear_costmap_recovery/ClearCostmapRecovery,
                        rotate_recovery/RotateRecovery, and ours:
                        my_summit_path_planning/BackUpRecovery, .../TurnAroundRecovery
@@ -18,9 +17,11 @@ A registration is one line: ``REGISTRY.register(type, factory(params, ctx, where
 """
 from . import recovery
 from .dwa import DWAPlanner
-from .nav_core import PluginContext, PluginError, Registry, from_module, namespace_of, read_limits
+from .global_planner import GlobalPlanner
+from .nav_core import PluginContext, PluginError, Registry, namespace_of, read_limits
 from .navfn import NavFn
 from .params import dwa_config, navfn_config
+from .trajectory_planner import TrajectoryPlanner
 
 GLOBAL_PLANNERS = Registry("base_global_planner")
 LOCAL_PLANNERS = Registry("base_local_planner")
@@ -50,17 +51,16 @@ def trajectory_planner_limits(params):
 
 # -- planners ---------------------------------------------------------------------------------
 GLOBAL_PLANNERS.register("navfn/NavfnROS", lambda params, ctx, where: NavFn(navfn_config(params, where)))
-GLOBAL_PLANNERS.register("global_planner/GlobalPlanner", from_module(
-    "global_planner", "GlobalPlanner",
-    lambda cls, params, ctx, where: cls.from_params(params, where)))
+GLOBAL_PLANNERS.register("global_planner/GlobalPlanner",
+                         lambda params, ctx, where: GlobalPlanner.from_params(params, where))
 
 LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS",
                         lambda params, ctx, where: DWAPlanner(dwa_config(params, where), ctx.footprint),
                         limits=dwa_limits)
-LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS", from_module(
-    "trajectory_planner", "TrajectoryPlanner",
-    lambda cls, params, ctx, where: cls.from_params(params, ctx.footprint, where)),
-    limits=trajectory_planner_limits)
+LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS",
+                        lambda params, ctx, where: TrajectoryPlanner.from_params(
+                            params, ctx.footprint, where, controller_frequency=ctx.controller_frequency),
+                        limits=trajectory_planner_limits)
 
 
 # -- recovery behaviours ------------------------------------------------------------------------
@@ -168,6 +168,14 @@ def planner_context(footprint, local_type, local_params, global_costmap=None, lo
                          controller_frequency=controller_frequency, local_limits=limits)
 
 
+def plugin_notes(name, planner):
+    """A planner's deprecation warnings, and one line per parameter of its namespace it does
+    not use (the planners record both when built from their parameters)."""
+    unused = sorted(set(getattr(planner, "ignored", ())) | set(getattr(planner, "unknown_params", ())))
+    return list(getattr(planner, "warnings", ())) + [f"~{name}/{k} is not a parameter of this planner; ignored"
+                                                     for k in unused]
+
+
 class MoveBasePlugins:
     """The plugins of one move_base configuration (params.MoveBaseParams), loaded by type.
 
@@ -194,6 +202,9 @@ class MoveBasePlugins:
                                    mb.controller_frequency)
         self.global_planner = self.make_global_planner()
         self.local_planner = self.make_local_planner()
+        # What the planners say about their parameters, for the node to log once.
+        self.notes = (plugin_notes(self.global_name, self.global_planner)
+                      + plugin_notes(self.local_name, self.local_planner))
         self.recovery_error = ""
         self.recoveries = None
         if mb.recovery_behaviors is not None:
