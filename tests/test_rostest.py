@@ -19,13 +19,6 @@ TIMEOUT = 1500  # [s] wall time for one rostest run (each .test's time-limit bou
 # package: rostest is told the directory and a package name for its results).
 TEST_FILES = sorted(glob.glob(os.path.join(WS, "src", "*", "test", "*.test"))) + \
     sorted(glob.glob(os.path.join(WS, "tests", "*.test")))
-# Known to fail some runs, tracked in an open issue: still run and reported (xfail /
-# xpass in the summary), but not allowed to fail the whole suite. Keep this list short.
-KNOWN_FLAKY = {
-    # issue 5 again: its last part (the command-line client driving back to 0 0 0) has
-    # stalled beside a hall pillar (DWA finds no valid command), about 1 run in 5.
-    "my_summit_navigation/get_coordinates_bad_input.test",
-}
 
 
 def package_of(path):
@@ -46,9 +39,7 @@ def case_id(path):
 
 
 @pytest.mark.integration
-@pytest.mark.parametrize("test_file", [
-    pytest.param(p, marks=pytest.mark.xfail(reason="known flaky, see KNOWN_FLAKY", strict=False))
-    if case_id(p) in KNOWN_FLAKY else p for p in TEST_FILES], ids=[case_id(p) for p in TEST_FILES])
+@pytest.mark.parametrize("test_file", TEST_FILES, ids=[case_id(p) for p in TEST_FILES])
 def test_rostest(test_file, tmp_path):
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path))
     rc, out = run_bounded(rostest_command(test_file), env, TIMEOUT)

@@ -1,33 +1,27 @@
 #!/usr/bin/python3
-"""rostest: /get_coordinates refuses bad input and says why; a newer call preempts.
+"""rostest: /get_coordinates and the stand-alone client refuse bad input and say why.
 
-Through the service (as `rosservice call` does):
-1. unknown label (the answer lists the known labels); empty and blank labels;
-2. a server whose spots file is missing, one whose spots file is malformed: they run,
-   and answer every call false naming the file and the fault;
-3. a server whose move_base action does not exist: false "move_base not available"
-   after its ~server_timeout;
-   (the robot has not moved through any of these)
-4. a spot in a wall: false with move_base's abort text;
-5. preemption: a call to the fetch room, then, while the robot drives, a newer call to a
-   spot in the hall: the older answers false "preempted by a newer call", the newer "OK"
-   with the robot within 0.3 m / 0.3 rad of its spot by ground truth;
-then the stand-alone client send_coordinates_action_client.py: x y yaw back to the start
-(exit 0, feedback printed, SUCCEEDED), an unknown label (exit 2, nothing sent), and no
-move_base (exit 1). Zero collisions over the whole run.
+One test per bad input, each on its own (any order, any outcome of the others); none
+of them may move the robot, and each checks that it did not:
+- through the service (as `rosservice call` does): an unknown label (the answer lists
+  the known labels), an empty label, a blank one; a server whose spots file is missing,
+  one whose spots file is malformed (they run, and answer every call false naming the
+  file and the fault, also on /rosout); a server whose move_base action does not exist
+  (false "move_base not available" after its ~server_timeout); a spot inside a wall
+  (false with move_base's abort text);
+- the command-line client send_coordinates_action_client.py: an unknown label (exit 2,
+  nothing sent), no move_base behind the action name (exit 1).
+The driving cases (preemption, the client driving to x y yaw) are rt_get_coordinates_drives.py.
 """
 import os
 import subprocess
 import sys
-import threading
-import time
 import unittest
 
 import rospkg
 import rospy
 import rostest
 
-from my_summit_localization.spots import load_spots
 from my_summit_navigation.srv import MyServiceMessage
 
 sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
@@ -36,14 +30,9 @@ from mbtest_util import lu  # noqa: E402
 
 SERVICE_WAIT = 120.0   # [s] wall: the stack may take a while to come up under load
 NO_SERVER_TIMEOUT = 2.0   # [s] the gc_no_move_base server's ~server_timeout (the .test)
-XY_TOL, YAW_TOL = 0.3, 0.3   # [m], [rad] by ground truth
-CLI_TIMEOUT = 300.0   # [s] wall bound of one command-line client run
-STILL = 0.05          # [m] the robot "has not moved"
-
-
-def proxy(name):
-    rospy.wait_for_service(name, SERVICE_WAIT)
-    return rospy.ServiceProxy(name, MyServiceMessage)
+CLI_TIMEOUT = 120.0    # [s] wall bound of one command-line client run (none of these drives)
+STILL = 0.05           # [m] the robot "has not moved"
+KNOWN = "room, turtle, table"   # the labels of the committed spots.yaml, in file order
 
 
 def run_client(*args):
@@ -55,116 +44,110 @@ def run_client(*args):
 
 
 class GetCoordinatesBadInput(unittest.TestCase):
-    def test_bad_input_and_preemption(self):
+    @classmethod
+    def setUpClass(cls):
         rospy.init_node("get_coordinates_bad_input_test")
-        missing = rospy.get_param("~missing_file")
-        malformed = rospy.get_param("~malformed_file")
-        hall_file = rospy.get_param("~hall_file")
-        _, hall = load_spots(hall_file)
-        rosout = lu.RosoutWatcher()
-        truth = mt.Truth(lu.map_in_world())
+        cls.missing = rospy.get_param("~missing_file")
+        cls.malformed = rospy.get_param("~malformed_file")
+        cls.hall_file = rospy.get_param("~hall_file")
+        cls.rosout = lu.RosoutWatcher()
+        cls.truth = mt.Truth(lu.map_in_world())
         lu.wait_clock()
-        main = proxy("/get_coordinates")
-        missing_srv = proxy("/missing/get_coordinates")
-        malformed_srv = proxy("/malformed/get_coordinates")
-        no_mb = proxy("/no_move_base/get_coordinates")
-        hall_srv = proxy("/hall/get_coordinates")
-        mt.client()
-        start = truth.wait()
-        lu.sleep_sim(2.0)
+        cls.srv = {}
+        for name in ("/get_coordinates", "/missing/get_coordinates", "/malformed/get_coordinates",
+                     "/no_move_base/get_coordinates", "/hall/get_coordinates"):
+            rospy.wait_for_service(name, SERVICE_WAIT)
+            cls.srv[name] = rospy.ServiceProxy(name, MyServiceMessage)
+        mt.client()               # move_base is up: the refusals below are not for want of it
+        cls.truth.wait()
 
-        # 1. labels
-        r = main("kitchen")
+    def setUp(self):
+        self.start = self.truth.pose
+        self.collisions = self.truth.collisions
+
+    def assert_still(self):
+        """The robot has not moved during the test, nor collided."""
+        moved = lu.pose_error(self.truth.pose, self.start)[0]
+        self.assertLess(moved, STILL, f"the robot moved {moved:.3f} m")
+        self.assertEqual(self.truth.collisions, self.collisions, "the robot collided")
+
+    def call(self, service, label):
+        r = self.srv[service](label)
+        print(f"{service} {label!r} -> {r.navigation_successfull} {r.message!r}", flush=True)
+        return r
+
+    # -- labels --------------------------------------------------------------------------
+    def test_unknown_label(self):
+        r = self.call("/get_coordinates", "kitchen")
         self.assertFalse(r.navigation_successfull)
-        self.assertEqual(r.message, "unknown label 'kitchen'; known labels: room, turtle, table")
-        for empty in ("", "   "):
-            r = main(empty)
-            self.assertFalse(r.navigation_successfull)
-            self.assertTrue(r.message.startswith("the label is empty"), r.message)
-            self.assertIn("room, turtle, table", r.message)
+        self.assertEqual(r.message, f"unknown label 'kitchen'; known labels: {KNOWN}")
+        self.assert_still()
 
-        # 2. unusable spots files: every call refused, naming the file and the fault
-        mark = rosout.mark()
+    def check_empty(self, label):
+        r = self.call("/get_coordinates", label)
+        self.assertFalse(r.navigation_successfull)
+        self.assertTrue(r.message.startswith("the label is empty"), r.message)
+        self.assertIn(KNOWN, r.message)
+        self.assert_still()
+
+    def test_empty_label(self):
+        self.check_empty("")
+
+    def test_blank_label(self):
+        self.check_empty("   ")
+
+    # -- unusable spots files: every call refused, naming the file and the fault ---------
+    def check_unusable_file(self, service, node, path, fault, log_fault):
+        mark = self.rosout.mark()
         for label in ("room", "", "kitchen"):
-            r = missing_srv(label)
+            r = self.call(service, label)
             self.assertFalse(r.navigation_successfull)
-            self.assertIn(missing, r.message)
-            self.assertIn("cannot read the spots file", r.message)
-            r = malformed_srv(label)
-            self.assertFalse(r.navigation_successfull)
-            self.assertIn(malformed, r.message)
-            self.assertIn("malformed YAML", r.message)
-        self.assertIn(malformed, rosout.wait("gc_malformed_file", "malformed YAML", mark))
-        self.assertIn(missing, rosout.wait("gc_missing_file", "cannot read", mark))
+            self.assertIn(path, r.message)
+            self.assertIn(fault, r.message)
+        self.assertIn(path, self.rosout.wait(node, log_fault, mark))
+        self.assert_still()
 
-        # 3. no move_base behind the action name
+    def test_missing_spots_file(self):
+        self.check_unusable_file("/missing/get_coordinates", "gc_missing_file", self.missing,
+                                 "cannot read the spots file", "cannot read")
+
+    def test_malformed_spots_file(self):
+        self.check_unusable_file("/malformed/get_coordinates", "gc_malformed_file", self.malformed,
+                                 "malformed YAML", "malformed YAML")
+
+    # -- move_base ------------------------------------------------------------------------
+    def test_no_move_base(self):
         t0 = rospy.Time.now()
-        r = no_mb("room")
+        r = self.call("/no_move_base/get_coordinates", "room")
         took = (rospy.Time.now() - t0).to_sec()
-        print(f"NO_MOVE_BASE after {took:.2f} s sim: {r.message!r}", flush=True)
+        print(f"NO_MOVE_BASE after {took:.2f} s sim", flush=True)
         self.assertFalse(r.navigation_successfull)
         self.assertTrue(r.message.startswith("move_base not available"), r.message)
         self.assertIn("/no_such_move_base", r.message)
         self.assertGreaterEqual(took, NO_SERVER_TIMEOUT - 0.1)
-        here = truth.pose
-        self.assertLess(lu.pose_error(here, start)[0], STILL, "no call so far should have moved the robot")
+        self.assert_still()
 
-        # 4. a spot in a wall: move_base aborts, and its reason is passed on
-        t0 = rospy.Time.now()
-        r = hall_srv("wall")
-        print(f"ABORTED after {(rospy.Time.now() - t0).to_sec():.2f} s sim: {r.message!r}", flush=True)
+    def test_spot_in_a_wall(self):
+        # move_base aborts the goal before driving, and its reason is passed on
+        r = self.call("/hall/get_coordinates", "wall")
         self.assertFalse(r.navigation_successfull)
         self.assertTrue(r.message.startswith("move_base aborted the goal: "), r.message)
         self.assertIn("invalid goal", r.message)
+        self.assert_still()
 
-        # 5. preemption by a newer call
-        answers = {}
-
-        def older():
-            answers["far"] = hall_srv("far")
-            answers["far_at"] = rospy.Time.now()
-
-        thread = threading.Thread(target=older, daemon=True)
-        thread.start()
-        here = truth.pose
-        lu.wait_for(lambda: lu.pose_error(truth.pose, here)[0] > 1.0, "the robot driving toward 'far'", 200.0)
-        self.assertNotIn("far", answers, "the first call should still be running")
-        t0 = rospy.Time.now()
-        r = hall_srv("near")
-        took = (rospy.Time.now() - t0).to_sec()
-        thread.join(30.0)
-        lu.sleep_sim(0.5)
-        near = hall["near"]
-        err_xy, err_yaw = lu.pose_error(truth.pose, (near.x, near.y, near.yaw))
-        far = answers["far"]
-        print(f"PREEMPT older: {far.message!r} after {(answers['far_at'] - t0).to_sec():.2f} s sim; newer: "
-              f"{r.message!r} after {took:.1f} s sim, error {err_xy:.3f} m {err_yaw:.3f} rad", flush=True)
-        self.assertFalse(far.navigation_successfull)
-        self.assertEqual(far.message, "preempted by a newer call (label 'near')")
-        self.assertLess((answers["far_at"] - t0).to_sec(), 2.0, "the older call should answer at once")
-        self.assertTrue(r.navigation_successfull, r.message)
-        self.assertEqual(r.message, "OK")
-        self.assertLessEqual(err_xy, XY_TOL)
-        self.assertLessEqual(err_yaw, YAW_TOL)
-
-        # the stand-alone action client
-        rc, out = run_client("0.0", "0.0", "0.0")
-        self.assertEqual(rc, 0, out)
-        self.assertIn("feedback: robot at", out)
-        self.assertIn("result: SUCCEEDED", out)
-        lu.sleep_sim(0.5)
-        err_xy, err_yaw = lu.pose_error(truth.pose, (0.0, 0.0, 0.0))
-        print(f"CLI x y yaw: final error {err_xy:.3f} m {err_yaw:.3f} rad", flush=True)
-        self.assertLessEqual(err_xy, XY_TOL)
-        self.assertLessEqual(err_yaw, YAW_TOL)
+    # -- the stand-alone client -------------------------------------------------------------
+    def test_cli_unknown_label(self):
         rc, out = run_client("kitchen")
         self.assertEqual(rc, 2, out)
-        self.assertIn("unknown label 'kitchen'; known labels: room, turtle, table", out)
-        rc, out = run_client("near", "--spots-file", hall_file, "--action", "/no_such_move_base",
+        self.assertIn(f"unknown label 'kitchen'; known labels: {KNOWN}", out)
+        self.assert_still()
+
+    def test_cli_no_move_base(self):
+        rc, out = run_client("near", "--spots-file", self.hall_file, "--action", "/no_such_move_base",
                              "--server-timeout", "1.0")
         self.assertEqual(rc, 1, out)
         self.assertIn("move_base not available", out)
-        self.assertEqual(truth.collisions, 0, "the robot collided")
+        self.assert_still()
 
 
 if __name__ == "__main__":

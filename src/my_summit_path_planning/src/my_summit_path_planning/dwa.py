@@ -63,7 +63,9 @@ Failure modes handled on purpose:
   (up to ESCAPE_VEL_X) needs to keep the clearance only until the robot could stop
   (Fox et al.'s admissibility), and may not lose any there: wedged in a doorway, every
   arc lost clearance somewhere over the whole horizon, but a few centimetres of creeping
-  let the robot turn.
+  let the robot turn. A robot already driving when it slips into its padding is judged
+  the same way at up to its present speed, down to the escape limit: passing an obstacle
+  at speed, every arc dips a little deeper before it opens up.
 - Late control loop (a loaded machine, a simulator faster than real time): move_base
   measures the interval between control cycles (set_control_latency) and braking, the
   goal approach and the collision horizon plan for it instead of one nominal period.
@@ -853,21 +855,35 @@ class DWAPlanner:
         if escape:
             lowest = escape_limit(floor, self.footprint.padding)
             loses = min_clear < lowest
-            # Creeping out (forward or turning on the spot, at most ESCAPE_VEL_X; backing
-            # up has its own rules below) needs room only to stop: the next cycle plans
-            # again from where this one leaves the robot (Fox et al.'s admissible
-            # velocities). Checked over the whole horizon, a robot wedged beside furniture
-            # with a few centimetres of room ahead had no constant-velocity arc that kept
-            # its clearance for 1.9 s and stood there for minutes (willow-full exploration).
-            # Such a short move may not spend ESCAPE_TOL, though: it must not bring the
-            # footprint nearer than it is, nor within ESCAPE_SLACK of touching, or the
-            # robot would turn a corner into a wall a millimetre at a time.
-            slow = np.hypot(samples[:, 0], samples[:, 1]) <= ESCAPE_VEL_X + EPS
+            # Moving out forward (or turning on the spot; backing up has its own rules
+            # below) needs room only to stop: the next cycle plans again from where this
+            # one leaves the robot (Fox et al.'s admissible velocities). Checked over the
+            # whole horizon, a robot wedged beside furniture with a few centimetres of
+            # room ahead had no constant-velocity arc that kept its clearance for 1.9 s
+            # and stood there for minutes (willow-full exploration). Such a short move may
+            # not spend ESCAPE_TOL, though: it must not bring the footprint nearer than it
+            # is, nor within ESCAPE_SLACK of touching, or the robot would turn a corner
+            # into a wall a millimetre at a time. The same holds for a robot that finds
+            # itself inside its padding while driving (a late command carried it a few
+            # millimetres past what was checked): its dynamic window holds nothing slow,
+            # and with no command at all it would brake along its current arc, unchecked,
+            # deeper into the padding. It may go on at up to its present speed, never
+            # faster, while the clearance stays above the escape limit until it could
+            # stop: passing an obstacle at speed it cannot help losing a few millimetres
+            # more, and it does not come back for more (the floor only rises). (Forced
+            # into escape mode with its padding still clear, a fast robot is not let off
+            # the whole horizon: no command brakes it hard, and it has the padding to
+            # brake in.)
+            speed = np.hypot(samples[:, 0], samples[:, 1])
+            slow = speed <= ESCAPE_VEL_X + EPS
+            v_now = math.hypot(velocity[0], velocity[1]) if c0 < 0.0 else 0.0
+            driving = v_now > ESCAPE_VEL_X
             n_short = np.minimum(n_check, n_brake)
             short = steps < n_short[:, None]
             min_short = np.minimum(np.where(short, clearance, np.inf).min(axis=1), next_clear)
             keeps_short = min_short >= max(lowest, min(c0, ESCAPE_SLACK))
-            crept = slow & (samples[:, 0] >= 0.0) & loses & keeps_short
+            passes = driving & (speed <= v_now + EPS) & (min_short >= lowest)
+            crept = ((slow & keeps_short) | passes) & (samples[:, 0] >= 0.0) & loses
             # The last resort (below): backing up slowly where it regains clearance by the
             # time the robot could stop, and loses none on the way.
             creeps_back = slow & (samples[:, 0] < 0.0) & loses & keeps_short \
