@@ -42,6 +42,16 @@ def test_ignored_parameters_are_named_when_they_ask_for_something():
         ("shutdown_costmaps", "make_plan_clear_costmap")
 
 
+def test_footprint_padding_at_the_top_level_is_accepted_and_named_as_ignored():
+    """navigation_tutorials' move_base.xml sets ~footprint_padding, which move_base never reads
+    (each costmap reads its own): accepted, named as ignored, the costmaps' own value kept."""
+    p = move_base_params({"footprint_padding": 0.01, "global_costmap": {"footprint_padding": 0.02}})
+    assert p.ignored == ("footprint_padding",)
+    assert p.global_costmap.footprint_padding == 0.02
+    with pytest.raises(ParamError, match="footprint_pading"):   # a misspelt name is still an error
+        move_base_params({"footprint_pading": 0.01})
+
+
 def test_missing_planner_namespaces_mean_defaults(footprint):
     p = move_base_params({"base_local_planner": DWA})
     pl = MoveBasePlugins(p, footprint=footprint)

@@ -69,6 +69,10 @@ class MoveBaseConfig:
 # each with the value that matches what this node does (another value is logged as ignored).
 IGNORED_MOVE_BASE_PARAMS = {"shutdown_costmaps": False, "make_plan_clear_costmap": False,
                             "make_plan_add_unreachable_goal": False}
+# Names set at move_base's top level by old configurations that no move_base reads there
+# (the real node leaves them unread; here each is logged once as ignored): costmap_2d reads
+# footprint_padding in each costmap's namespace (navigation_tutorials' move_base.xml sets both).
+UNREAD_MOVE_BASE_PARAMS = ("footprint_padding",)
 
 
 @dataclass
@@ -256,14 +260,15 @@ def move_base_params(ns, where="move_base"):
         raise ParamError(f"{where}: expected a namespace of parameters, got {ns!r}")
     own = {k: v for k, v in ns.items() if not isinstance(v, dict)}
     subs = {k: v for k, v in ns.items() if isinstance(v, dict)}
-    mb = from_dict(MoveBaseConfig, own, where)
+    mb = from_dict(MoveBaseConfig, own, where, extra_ok=UNREAD_MOVE_BASE_PARAMS)
     if mb.recovery_behaviors is not None and not isinstance(mb.recovery_behaviors, list):
         raise ParamError(f"{where}: 'recovery_behaviors' must be a list of {{name, type}}, "
                          f"got {mb.recovery_behaviors!r}")
     costmaps = {name: costmap_config(subs.pop(name, {}), f"{where}/{name}")
                 for name in ("global_costmap", "local_costmap")}
     return MoveBaseParams(move_base=mb, namespaces=subs,
-                          ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v),
+                          ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v)
+                          + tuple(k for k in UNREAD_MOVE_BASE_PARAMS if k in own),
                           **costmaps)
 
 

@@ -1,0 +1,104 @@
+#!/usr/bin/python3
+"""rostest: the course lesson's navigation_stage configuration drives the robot to its goals.
+
+The .test starts lesson_navigation_stage.launch (simulator on willow-full, map_server in
+its deprecated IMAGE RESOLUTION form, amcl with amcl_node.xml's parameters, move_base
+named move_base_node loading the lesson's pre-Hydro costmap files and its
+TrajectoryPlannerROS file). This node sends the goals one after the other to the action
+server /move_base and judges each by the simulator's ground truth (the world is the map,
+so no frame change).
+
+  param ~goals: [{x: .., y: .., theta: DEG}, ...] in the map frame, sent in order
+  param ~xy_tolerance [m], ~yaw_tolerance [rad]: by ground truth, after each goal
+  param ~goal_timeout [s] sim: how long each goal may take
+  param ~node: move_base's node name (move_base_node)
+  param ~expect_log: strings every one of which must appear in that node's log file
+
+Asserts: every goal ends SUCCEEDED within ~goal_timeout; the true pose is then within the
+tolerances; /collisions stays 0; the node's log says what it loaded (~expect_log: the
+pre-Hydro parameters of both costmaps, the TrajectoryPlannerROS local planner).
+Prints one LESSON_GOAL line per goal.
+"""
+import glob
+import math
+import os
+import sys
+import time
+import unittest
+
+import rospkg
+import rospy
+import rostest
+
+sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
+import mbtest_util as mt  # noqa: E402
+
+SETTLE = 1.0        # [s] sim: after a result, before the pose is judged (the robot has stopped)
+LOG_WAIT = 30.0     # [s] wall: for the node's log file to hold its start-up lines
+WORLD_IS_MAP = (0.0, 0.0, 0.0)  # willow-full's origin is (0, 0, 0) and the simulator's world is that map
+
+
+def node_log_lines(node):
+    """The lines of `node`'s rospy log file(s) in this launch's log directory."""
+    run_id = rospy.get_param("/run_id")
+    pattern = os.path.join(rospkg.get_log_dir(), run_id, node.lstrip("/") + "*.log")
+    lines = []
+    for path in sorted(glob.glob(pattern)):
+        with open(path, errors="replace") as f:
+            lines += f.read().splitlines()
+    return lines
+
+
+def missing_log_lines(node, expected, timeout_wall=LOG_WAIT):
+    """The strings of `expected` not found in the node's log (waiting up to timeout_wall)."""
+    end = time.monotonic() + timeout_wall
+    while True:
+        lines = node_log_lines(node)
+        missing = [s for s in expected if not any(s in line for line in lines)]
+        if not missing or time.monotonic() > end:
+            return missing
+        time.sleep(0.5)
+
+
+class LessonNavigationStage(unittest.TestCase):
+    def test_goals_by_ground_truth(self):
+        rospy.init_node("lesson_navigation_stage_test")
+        goals = rospy.get_param("~goals")
+        xy_tol = float(rospy.get_param("~xy_tolerance"))
+        yaw_tol = float(rospy.get_param("~yaw_tolerance"))
+        goal_timeout = float(rospy.get_param("~goal_timeout"))
+        node = rospy.get_param("~node", "move_base_node")
+        expect_log = rospy.get_param("~expect_log", [])
+        truth = mt.Truth(WORLD_IS_MAP)
+        mt.lu.wait_clock()
+        truth.wait()
+        c = mt.client("move_base")
+        missing = missing_log_lines(node, expect_log)
+        self.assertEqual(missing, [], f"{node}'s log lacks these start-up lines: {missing}")
+
+        failures = []
+        for i, g in enumerate(goals):
+            goal = (float(g["x"]), float(g["y"]), math.radians(float(g["theta"])))
+            t0 = rospy.Time.now().to_sec()
+            c.send_goal(mt.make_goal(*goal))
+            state, text = mt.wait_result(c, goal_timeout)
+            took = rospy.Time.now().to_sec() - t0
+            mt.lu.sleep_sim(SETTLE)
+            pose = truth.pose
+            err_xy, err_yaw = mt.lu.pose_error(pose, goal)
+            print(f"LESSON_GOAL i={i} goal=({goal[0]:.2f},{goal[1]:.2f},{g['theta']}deg) state={state} "
+                  f"sim_s={took:.1f} xy_error_m={err_xy:.3f} yaw_error_rad={err_yaw:.3f} "
+                  f"collisions={truth.collisions} text={text!r}", flush=True)
+            if state != "SUCCEEDED":
+                failures.append(f"goal {i}: move_base ended {state}: {text}")
+                break
+            if err_xy > xy_tol or err_yaw > yaw_tol:
+                failures.append(f"goal {i}: {err_xy:.3f} m / {err_yaw:.3f} rad from the goal by ground "
+                                f"truth (tolerance {xy_tol} m / {yaw_tol} rad)")
+        if truth.collisions:
+            failures.append(f"{truth.collisions} collisions")
+        self.assertEqual(failures, [], "; ".join(failures))
+
+
+if __name__ == "__main__":
+    rostest.rosrun("my_summit_navigation", "lesson_navigation_stage", LessonNavigationStage)
