@@ -1,6 +1,6 @@
 """costmap_2d's pre-Hydro layout translated as loadOldParameters does; the plugin layout kept.
 
-The lesson's files (test/data/navigation_stage/) are navigation_tutorials' real
+The lesson's files (config/navigation_stage/) are navigation_tutorials' real
 navigation_stage costmap files, loaded as its move_base.xml loads them.
 """
 import os
@@ -16,7 +16,7 @@ from my_summit_path_planning.layers import InflationLayer, ObstacleLayer, Static
     scan_to_observation
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-LESSON = os.path.join(HERE, "data", "navigation_stage")
+LESSON = os.path.join(HERE, "..", "config", "navigation_stage")
 COURSE_CONFIG = os.path.join(HERE, "..", "config")
 
 
