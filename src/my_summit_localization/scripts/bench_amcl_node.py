@@ -13,6 +13,7 @@ first pose, a window of --sim-time simulated seconds is measured:
                   (/base_pose_ground_truth, taken into the map frame: the map's origin is
                   the spawn pose, amcl.launch's map_in_world_*) - a sanity check that a
                   faster node still localizes
+  clouds          particle clouds received (only with --cloud: a subscriber as rviz)
   threads         CPU seconds of each of amcl's threads in the window (with --profile:
                   named by the topic whose receive loop it runs)
 With --profile DIR, amcl runs under tools/profile_node.py (cProfile in every receive
@@ -24,7 +25,7 @@ The real C++ amcl with the same parameters on the same tour: 0.087 CPU s per sim
 (target for ours: <= 0.12).
 
 Usage: bench_amcl_node.py [--runs 3] [--sim-time 60] [--speed 1] [--json PATH]
-                          [--profile DIR] [--launch-arg name:=value ...]
+                          [--cloud] [--profile DIR] [--launch-arg name:=value ...]
 """
 import argparse
 import json
@@ -102,7 +103,7 @@ def find_node_pid(launch_pid, name):
 class Recorder:
     """amcl_pose, ground truth and the number of scans, from the topics."""
 
-    def __init__(self):
+    def __init__(self, cloud=False):
         import rospy
         from geometry_msgs.msg import PoseWithCovarianceStamped
         from nav_msgs.msg import Odometry
@@ -114,6 +115,12 @@ class Recorder:
             rospy.Subscriber("/amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=50),
             rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=200),
             rospy.Subscriber(SCAN_TOPIC, rospy.AnyMsg, self._on_scan, queue_size=200)]
+        self.clouds = 0
+        if cloud:  # as rviz does: amcl then builds and sends the cloud
+            self.subs.append(rospy.Subscriber("/particlecloud", rospy.AnyMsg, self._on_cloud, queue_size=5))
+
+    def _on_cloud(self, _msg):
+        self.clouds += 1
 
     @staticmethod
     def _pose(msg_pose):
@@ -166,7 +173,10 @@ def run_once(index, args, tmp):
     out_prefix = None
     if args.profile:
         out_prefix = os.path.join(os.path.abspath(args.profile), f"amcl_run{index}")
-        prefix = f"/usr/bin/python3 {os.path.join(WS, 'tools', 'profile_node.py')} {out_prefix}"
+        # OPENBLAS_NUM_THREADS as the node sets it for itself: the profiler's rospy import
+        # loads numpy before the node's first line runs.
+        prefix = (f"env OPENBLAS_NUM_THREADS=1 /usr/bin/python3 {os.path.join(WS, 'tools', 'profile_node.py')} "
+                  f"{out_prefix}")
     launch_path = os.path.join(tmp, f"bench_amcl_node_{index}.launch")
     with open(launch_path, "w") as f:
         f.write(LAUNCH.format(speed=args.speed, prefix=prefix))
@@ -174,7 +184,7 @@ def run_once(index, args, tmp):
     with RoslaunchSession([launch_path] + args.launch_arg, log=log) as session:
         wait_for_sim_time_param(session)
         rospy.init_node("bench_amcl_node", anonymous=True, disable_signals=True)
-        rec = Recorder()
+        rec = Recorder(cloud=args.cloud)
         wait_for(lambda: rec.poses, START_TIMEOUT, "amcl's first pose", session)
         pid = find_node_pid(session.proc.pid, "amcl")
         if pid is None:
@@ -191,6 +201,7 @@ def run_once(index, args, tmp):
         load1 = os.getloadavg()
         time.sleep(0.5)  # the last amcl_pose of the window
         scans, updates = rec.counts(sim0, sim1)
+        clouds = rec.clouds
         pos_rmse, yaw_rmse, samples = rec.errors(sim0, sim1)
         for s in rec.subs:
             s.unregister()
@@ -205,7 +216,7 @@ def run_once(index, args, tmp):
         named[key] = named.get(key, 0.0) + cpu
     sim_s = sim1 - sim0
     return dict(run=index, sim_s=sim_s, wall_s=wall1 - wall0, cpu_s=cpu1 - cpu0,
-                cpu_per_sim_s=(cpu1 - cpu0) / sim_s, peak_rss_mb=rss, scans=scans, updates=updates,
+                cpu_per_sim_s=(cpu1 - cpu0) / sim_s, peak_rss_mb=rss, scans=scans, updates=updates, clouds=clouds,
                 scans_per_sim_s=scans / sim_s, updates_per_sim_s=updates / sim_s,
                 position_rmse_m=pos_rmse, yaw_rmse_deg=yaw_rmse, error_samples=samples,
                 threads={k: round(v, 3) for k, v in named.items() if v > 0.0},
@@ -241,6 +252,8 @@ def main():
     ap.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--profile", metavar="DIR", help="run amcl under tools/profile_node.py, profiles in DIR")
+    ap.add_argument("--cloud", action="store_true",
+                    help="subscribe to particlecloud, as rviz does (amcl builds it at gui_publish_rate)")
     ap.add_argument("--launch-arg", action="append", default=[], help="extra name:=value for the launch")
     ap.add_argument("--run-index", type=int, help=argparse.SUPPRESS)  # one run, in a child process
     args = ap.parse_args()
@@ -252,7 +265,7 @@ def main():
     runs = []
     for i in range(args.runs):
         cmd = [sys.executable, os.path.abspath(__file__), "--run-index", str(i), "--sim-time", str(args.sim_time),
-               "--speed", str(args.speed)] + (["--profile", args.profile] if args.profile else []) + \
+               "--speed", str(args.speed)] + (["--cloud"] if args.cloud else []) + (["--profile", args.profile] if args.profile else []) + \
             [a for la in args.launch_arg for a in ("--launch-arg", la)]
         proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         out = proc.stdout
@@ -274,7 +287,7 @@ def main():
     median = {k: statistics.median(r[k] for r in runs) for k in keys}
     result = dict(runs=runs, median=median, speed=args.speed, sim_time=args.sim_time,
                   target_cpu_per_sim_s=TARGET_CPU_PER_SIM_S, real_amcl_cpu_per_sim_s=REAL_AMCL_CPU_PER_SIM_S,
-                  profiled=bool(args.profile))
+                  profiled=bool(args.profile), cloud_subscribed=args.cloud)
     print(f"median of {len(runs)}: {median['cpu_per_sim_s']:.3f} CPU s per simulated s (target <= "
           f"{TARGET_CPU_PER_SIM_S}; real amcl {REAL_AMCL_CPU_PER_SIM_S}); peak RSS {median['peak_rss_mb']:.0f} MB; "
           f"{median['scans_per_sim_s']:.1f} scans/s, {median['updates_per_sim_s']:.2f} updates/s; amcl_pose RMSE "
