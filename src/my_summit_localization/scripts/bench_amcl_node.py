@@ -18,7 +18,9 @@ first pose, a window of --sim-time simulated seconds is measured:
                   named by the topic whose receive loop it runs)
 With --profile DIR, amcl runs under tools/profile_node.py (cProfile in every receive
 thread, CPU clock) and DIR/amcl_run<i>.pstats holds the profile; the top functions by
-cumulative and by own time are printed. The profiler slows the node: the CPU figures of
+cumulative and by own time are printed, and the shares of the profiled CPU of each
+stage (PROFILE_STAGES: filter update, pose estimate, publishing, the rest of the scan
+handling, reading messages, other callbacks) go to the JSON as profile_shares. The profiler slows the node: the CPU figures of
 a profiled run are not the benchmark's.
 
 The real C++ amcl with the same parameters on the same tour: 0.087 CPU s per simulated s
@@ -223,6 +225,40 @@ def run_once(index, args, tmp):
                 load_average=[round(x, 2) for x in load0 + load1], profile=out_prefix, log=log)
 
 
+# Where the time goes: stage -> functions whose cumulative CPU it is, from the profile
+# (file suffix, function name); later stages are subtracted from the ones that contain them.
+PROFILE_STAGES = (
+    ("filter update (motion, laser model, resampling)", [("particle_filter.py", "update")]),
+    ("pose estimate (clusters, covariance)", [("particle_filter.py", "estimate")]),
+    ("publishing (amcl_pose, tf)", [("rospy/topics.py", "publish")]),
+    ("rest of the scan handling (tf wait, gating, conversion)",
+     [("nodes/amcl", "on_scan"), ("tf_message_filter.py", "tf_arrived")]),
+    ("reading and deserializing messages (all topics)", [("tcpros_base.py", "receive_once")]),
+    ("/clock, tf listener and other callbacks", [("rospy/topics.py", "_invoke_callback")]),
+)
+
+
+def profile_summary(path):
+    """{stage: share of the profiled CPU} of a profile_node.py profile (PROFILE_STAGES).
+
+    Each stage's cumulative CPU minus the stages it contains (the filter update,
+    estimate and publishing run inside the scan handling, which runs inside the
+    callbacks). Shares, not seconds: the profiler itself slows everything ~3x."""
+    import pstats
+    stats = pstats.Stats(path).stats
+    total = sum(v[2] for v in stats.values())  # own times add up to the profiled CPU
+
+    def cum(keys):
+        return sum(v[3] for (f, _line, name), v in stats.items()
+                   if any(f.endswith(suffix) and name == fn for suffix, fn in keys))
+
+    update, estimate, publish, scan, read, callbacks = (cum(keys) for _, keys in PROFILE_STAGES)
+    own = [update, estimate, publish, scan - update - estimate - publish, read, callbacks - scan]
+    shares = {name: round(max(v, 0.0) / total, 3) for (name, _), v in zip(PROFILE_STAGES, own)}
+    shares["other"] = round(max(0.0, 1.0 - sum(shares.values())), 3)
+    return shares
+
+
 def print_profile(path, limit=25):
     import pstats
     st = pstats.Stats(path)
@@ -241,6 +277,7 @@ def child(args):
             r = run_once(args.run_index, args, tmp)
     if r["profile"] and os.path.exists(r["profile"] + ".pstats"):
         print_profile(r["profile"] + ".pstats")
+        r["profile_shares"] = profile_summary(r["profile"] + ".pstats")
     print("\n" + json.dumps(r), flush=True)
     return 0
 
@@ -282,12 +319,17 @@ def main():
               f"{r['position_rmse_m']:.3f} m / {r['yaw_rmse_deg']:.2f} deg; load {r['load_average']}",
               flush=True)
         print("   threads (CPU s): " + ", ".join(f"{k} {v:.2f}" for k, v in r["threads"].items()), flush=True)
+        if "profile_shares" in r:
+            print("   profile (share of the profiled CPU): " +
+                  ", ".join(f"{k} {v:.0%}" for k, v in r["profile_shares"].items()), flush=True)
     keys = ("cpu_per_sim_s", "peak_rss_mb", "scans_per_sim_s", "updates_per_sim_s", "position_rmse_m",
             "yaw_rmse_deg")
     median = {k: statistics.median(r[k] for r in runs) for k in keys}
     result = dict(runs=runs, median=median, speed=args.speed, sim_time=args.sim_time,
                   target_cpu_per_sim_s=TARGET_CPU_PER_SIM_S, real_amcl_cpu_per_sim_s=REAL_AMCL_CPU_PER_SIM_S,
                   profiled=bool(args.profile), cloud_subscribed=args.cloud)
+    if args.profile and "profile_shares" in runs[0]:
+        result["profile_shares"] = runs[0]["profile_shares"]
     print(f"median of {len(runs)}: {median['cpu_per_sim_s']:.3f} CPU s per simulated s (target <= "
           f"{TARGET_CPU_PER_SIM_S}; real amcl {REAL_AMCL_CPU_PER_SIM_S}); peak RSS {median['peak_rss_mb']:.0f} MB; "
           f"{median['scans_per_sim_s']:.1f} scans/s, {median['updates_per_sim_s']:.2f} updates/s; amcl_pose RMSE "
