@@ -74,11 +74,11 @@ def test_pose_array_block_is_the_reference_message_on_the_wire(n):
     particle, genpy's serializer), and reads back as a PoseArray of the particles."""
     from io import BytesIO
 
-    import genpy
+    import rospy
     from geometry_msgs.msg import PoseArray
     rng = np.random.default_rng(n)
     p = np.column_stack([rng.normal(size=n) * 10, rng.normal(size=n), rng.uniform(-math.pi, math.pi, n)])
-    stamp = genpy.Time(12, 345)
+    stamp = rospy.Time(12, 345)
     ref, fast = BytesIO(), BytesIO()
     amcl_msgs.pose_array_msg(p, "map", stamp).serialize(ref)
     block = amcl_msgs.PoseArrayBlock(p, "map", stamp)

@@ -1,10 +1,11 @@
 """Unit tests of summit_nav_common.ros.tf_message_filter (no ROS master: a tf2_ros.Buffer
 filled by hand, a hand-driven wall clock)."""
+from types import SimpleNamespace
+
 import pytest
 import rospy
 import tf2_ros
 from geometry_msgs.msg import TransformStamped
-from std_msgs.msg import Header
 
 from summit_nav_common.ros.tf_message_filter import QueueOverflow, TfMessageFilter
 
@@ -20,7 +21,7 @@ def odom_tf(t, x):
 
 class Msg:
     def __init__(self, t):
-        self.header = Header(stamp=rospy.Time.from_sec(t))
+        self.header = SimpleNamespace(stamp=rospy.Time.from_sec(t))
 
 
 class Clock:
