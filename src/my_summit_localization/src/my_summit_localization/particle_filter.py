@@ -35,7 +35,8 @@ Algorithms:
 Update gating and bookkeeping follow amcl_node.cpp laserReceived: the first scan after
 (re)initialisation is always used (no motion); later a scan is used when the odometry
 moved more than update_min_d along x or along y (odom frame, per axis) or more than
-update_min_a in yaw since the last update, or when request_nomotion_update was called.
+update_min_a in yaw since the last update, or when request_nomotion_update was called
+(update_due asks the same without touching the filter, so a node can skip a scan unread).
 Each used scan applies the motion model once for the whole odometry increment, then the
 laser model, and every resample_interval-th used scan resamples.
 
