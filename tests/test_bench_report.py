@@ -136,7 +136,11 @@ SECTION_RESULTS = {
     "amcl": {"cost": [{"map": "built-in", "particles": 5000, "beams": 61, "median_ms": 3.3, "p90_ms": 4.0,
                        "with_estimate_median_ms": 3.6, "peak_rss_mb": 300.0}],
              "tracking": {"position_rmse_m": 0.03, "yaw_rmse_deg": 0.18, "position_max_m": 0.1, "yaw_max_deg": 1.0},
-             "global": {"runs": 20, "converged": 17}, "kidnap": {"runs": 10, "recovered": 10}},
+             "global": {"runs": 20, "converged": 17}, "kidnap": {"runs": 10, "recovered": 10},
+             "node": {"median": {"cpu_per_sim_s": 0.13, "peak_rss_mb": 265.0, "scans_per_sim_s": 40.0,
+                                 "updates_per_sim_s": 9.4, "position_rmse_m": 0.04, "yaw_rmse_deg": 0.2},
+                      "runs": 3, "sim_time": 60.0, "speed": 1.0, "real_amcl_cpu_per_sim_s": 0.087,
+                      "profile_shares": {"filter update": 0.12, "reading messages": 0.36}}},
     "planning": {"peak_rss_mb": 500.0, "max_vel_x": 1.0,
                  "navfn_willow": {"pairs": 12, "repeats_median_ms": [80, 82], "median_ms": 82.0, "cpu_median_ms": 81.0,
                                   "length_ratio_max": 1.025, "length_ratio_median": 1.001},
@@ -166,7 +170,7 @@ SECTION_RESULTS = {
 EXPECTED_MET = {
     "slam_carmen": [True, None],
     "slam_sim": [True, True, True],
-    "amcl": [True, True, False, True],
+    "amcl": [True, True, False, True, False],  # node: 0.13 > 0.12 CPU s per simulated s
     # GlobalPlanner A*: faster than NavFn, path 1.029 > 1.02; Dijkstra: slower, no path target;
     # closed loop on willow: 95% < 98% and no ratio
     "planning": [True, True, True, False, False, None, True, True, False, None],

@@ -19,7 +19,8 @@ beside each time. Sections:
               the built-in world: ATE vs ground truth, map precision / recall, CPU per
               simulated second, peak RSS
   amcl        the amcl core: update cost (5000 particles, 61 beams), tracking on the tour,
-              global localization from 20 seeded poses, kidnapping (10 runs)
+              global localization from 20 seeded poses, kidnapping (10 runs); the live
+              node on the tour: CPU per simulated second, and a profile of where it goes
   planning    the path-planning core (no ROS): NavFn and GlobalPlanner (A*, Dijkstra) plan
               time on willow-full-0.05 and their paths against the exact grid geodesic;
               one DWA control cycle; closed loop
@@ -187,12 +188,29 @@ def bench_slam_sim(runs):
         return json.load(f)
 
 
-def bench_amcl():
+def bench_amcl(runs):
+    """The amcl core (bench_amcl_core.py), then the live node on the tour
+    (bench_amcl_node.py): median CPU per simulated second of `runs` runs, and one
+    profiled run for where the time goes."""
     script = os.path.join(WS, "src", "my_summit_localization", "scripts", "bench_amcl_core.py")
     path = os.path.join(OUT, "bench_amcl.json")
     subprocess.run([sys.executable, script, "--json", path], check=True)
     with open(path) as f:
-        return json.load(f)
+        res = json.load(f)
+    node_script = os.path.join(WS, "src", "my_summit_localization", "scripts", "bench_amcl_node.py")
+    node_path = os.path.join(OUT, "bench_amcl_node.json")
+    subprocess.run([sys.executable, node_script, "--runs", str(runs), "--json", node_path], check=True)
+    with open(node_path) as f:
+        node = json.load(f)
+    prof_path = os.path.join(OUT, "bench_amcl_node_profile.json")
+    subprocess.run([sys.executable, node_script, "--runs", "1", "--sim-time", "30", "--profile",
+                    os.path.join(OUT, "amcl_profile"), "--json", prof_path], check=True)
+    with open(prof_path) as f:
+        shares = json.load(f).get("profile_shares")
+    res["node"] = {"median": node["median"], "runs": len(node["runs"]), "sim_time": node["sim_time"],
+                   "speed": node["speed"], "profile_shares": shares,
+                   "real_amcl_cpu_per_sim_s": node["real_amcl_cpu_per_sim_s"]}
+    return res
 
 
 def bench_planning(runs):
@@ -291,7 +309,7 @@ def main():
         "sim_rtf": lambda: bench_sim_rtf_runs(max(1, min(args.runs, 3))),
         "slam_carmen": lambda: bench_slam_carmen(args.carmen_logs),
         "slam_sim": lambda: bench_slam_sim(args.runs),
-        "amcl": bench_amcl,
+        "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "planning": lambda: bench_planning(args.runs),
         "explore": bench_explore,
         "patrol": bench_patrol,

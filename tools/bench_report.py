@@ -34,7 +34,7 @@ SECTIONS = {
     "sim_rtf": "the simulator's real-time factor with one robot, as fast as it can, every topic subscribed",
     "slam_carmen": "the SLAM core offline on the CARMEN Intel and ACES logs",
     "slam_sim": "slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour",
-    "amcl": "the amcl core: update cost, tracking, global localization, kidnapping",
+    "amcl": "the amcl core: update cost, tracking, global localization, kidnapping; the live node's CPU",
     "planning": "the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop over seeded goal pairs",
     "explore": "frontier exploration (explore.launch, real time)",
     "patrol": "the patrol: 10 rounds x 3 spots, a box dropped on the route twice (real time)",
@@ -140,6 +140,7 @@ def rows_slam_sim(res):
 AMCL_UPDATE_MS = 10.0  # [ms] one filter update
 AMCL_TRACK_POS, AMCL_TRACK_YAW = 0.05, 2.0  # [m], [deg]
 AMCL_GLOBAL_SHARE, AMCL_KIDNAP_SHARE = 0.9, 0.8  # 18 of 20, 8 of 10
+AMCL_NODE_CPU = 0.12  # [CPU s per simulated s] the live node on the tour (the real amcl: 0.087)
 
 
 def rows_amcl(res):
@@ -164,6 +165,20 @@ def rows_amcl(res):
             need = math.ceil(share * g["runs"])
             out.append(row(f"amcl {what}", f"{g[count]} of {g['runs']}", {count: g[count], "runs": g["runs"]},
                            f">= {need} of {g['runs']}", g[count] >= need))
+    if "node" in res:
+        n, m = res["node"], res["node"]["median"]
+        shares = n.get("profile_shares") or {}
+        where = "; where the time goes (profile): " + ", ".join(
+            f"{k} {v:.0%}" for k, v in sorted(shares.items(), key=lambda kv: -kv[1])) if shares else ""
+        out.append(row(f"amcl node on the tour (tour.launch + amcl.launch, 5000 max particles, 60 beams): CPU per "
+                       f"simulated s, median of {n['runs']} runs of {n['sim_time']:g} s",
+                       f"{m['cpu_per_sim_s']:.3f} s (the real amcl: {n['real_amcl_cpu_per_sim_s']:g} s; peak RSS "
+                       f"{m['peak_rss_mb']:.0f} MB; {m['scans_per_sim_s']:.0f} scans/s, {m['updates_per_sim_s']:.1f} "
+                       f"filter updates/s; amcl_pose vs ground truth {m['position_rmse_m']:.3f} m / "
+                       f"{m['yaw_rmse_deg']:.2f} deg RMSE{where})",
+                       {"cpu_per_sim_s": m["cpu_per_sim_s"], "peak_rss_mb": m["peak_rss_mb"],
+                        "updates_per_sim_s": m["updates_per_sim_s"], "profile_shares": shares},
+                       f"<= {AMCL_NODE_CPU} s", m["cpu_per_sim_s"] <= AMCL_NODE_CPU))
     return out
 
 

@@ -68,6 +68,29 @@ def test_pose_with_covariance_layout():
     assert msg.header.frame_id == "map"
 
 
+@pytest.mark.parametrize("n", [0, 1, 777])
+def test_pose_array_block_is_the_reference_message_on_the_wire(n):
+    """PoseArrayBlock serializes to the same bytes as pose_array_msg (one Pose per
+    particle, genpy's serializer), and reads back as a PoseArray of the particles."""
+    from io import BytesIO
+
+    import rospy
+    from geometry_msgs.msg import PoseArray
+    rng = np.random.default_rng(n)
+    p = np.column_stack([rng.normal(size=n) * 10, rng.normal(size=n), rng.uniform(-math.pi, math.pi, n)])
+    stamp = rospy.Time(12, 345)
+    ref, fast = BytesIO(), BytesIO()
+    amcl_msgs.pose_array_msg(p, "map", stamp).serialize(ref)
+    block = amcl_msgs.PoseArrayBlock(p, "map", stamp)
+    block.serialize(fast)
+    assert fast.getvalue() == ref.getvalue()
+    assert (block._type, block._md5sum) == (PoseArray._type, PoseArray._md5sum)
+    back = PoseArray().deserialize(fast.getvalue())
+    assert back.header.frame_id == "map" and back.header.stamp == stamp and len(back.poses) == n
+    if n:
+        np.testing.assert_allclose([amcl_msgs.pose_of_pose_msg(m) for m in back.poses], p, atol=1e-12)
+
+
 def test_pose_array_and_transform():
     rng = np.random.default_rng(0)
     p = np.column_stack([rng.normal(size=50), rng.normal(size=50), rng.uniform(-math.pi, math.pi, 50)])

@@ -343,6 +343,35 @@ def test_update_gating_and_nomotion_update(world):
     assert pf.update((0.21, 0.0, -0.6), scan, ANGLES, MOUNT, 0.1, 30.0)
 
 
+def test_update_due_is_the_gating_of_update(world):
+    """The node asks update_due before it converts a scan: filtering only the scans it
+    accepts must leave the filter exactly as feeding it every scan (same particles,
+    weights, w_slow / w_fast, random numbers), over a walk that crosses yaw = +-pi."""
+    cfg = AmclConfig(max_particles=400, min_particles=100, update_min_d=0.05, update_min_a=0.1,
+                     resample_interval=2)
+    every, gated = (ParticleFilter(cfg, world.grid, np.random.default_rng(3)) for _ in range(2))
+    walk = np.random.default_rng(4)
+    odom = np.array([0.0, 0.0, 3.0])
+    scan = true_scan(world, (6.0, 7.0, 0.0))
+    used = 0
+    for k in range(150):
+        if k == 70:
+            for pf in (every, gated):
+                pf.request_nomotion_update()
+        due = gated.update_due(odom)
+        assert every.update(odom, scan, ANGLES, MOUNT, 0.1, 30.0) == due
+        if due:
+            used += 1
+            assert gated.update(odom, scan, ANGLES, MOUNT, 0.1, 30.0)
+        odom = odom + walk.uniform([-0.02, -0.02, -0.05], [0.03, 0.03, 0.06])
+        odom[2] = math.remainder(odom[2], 2 * math.pi)
+    assert 20 < used < 150
+    np.testing.assert_array_equal(every.particles, gated.particles)
+    np.testing.assert_array_equal(every.weights, gated.weights)
+    assert (every.w_slow, every.w_fast) == (gated.w_slow, gated.w_fast)
+    assert every.rng.random() == gated.rng.random()
+
+
 def test_resample_interval(world):
     cfg = AmclConfig(max_particles=300, min_particles=300, update_min_d=0.0, update_min_a=0.0,
                      resample_interval=3)

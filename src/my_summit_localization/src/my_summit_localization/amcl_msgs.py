@@ -4,15 +4,18 @@ amcl_node.cpp's message handling, written once: the initialpose checks
 (``handleInitialPoseMessage``: the pose must be in the global frame; an empty frame_id is
 accepted with a warning; a non-finite pose is ignored), the 6x6 covariance layout of
 PoseWithCovariance (row-major over x, y, z, roll, pitch, yaw; amcl fills the x/y block
-and yaw*yaw), the particle cloud, the map->odom transform, the laser's pose in the base
+and yaw*yaw), the particle cloud (built as one array: PoseArrayBlock; pose_array_msg,
+one Pose per particle, is its reference), the map->odom transform, the laser's pose in the base
 frame, and the beam angles of a LaserScan.
 
 Poses are (x [m], y [m], yaw [rad]) numpy arrays.
 """
 import math
+import struct
 
 import numpy as np
 from geometry_msgs.msg import Pose, PoseArray, PoseWithCovarianceStamped, TransformStamped
+from std_msgs.msg import Header
 
 from summit_nav_common.geometry import quaternion_to_yaw, yaw_to_quaternion_zw
 
@@ -106,6 +109,31 @@ def pose_array_msg(particles, frame_id, stamp=None):
         poses.append(m)
     msg.poses = poses
     return msg
+
+
+class PoseArrayBlock:
+    """geometry_msgs/PoseArray (particlecloud) of (N, 3) particles, without a Pose object
+    per particle: the poses are kept as the (N, 7) float64 block (x, y, z, qx, qy, qz, qw)
+    that is their wire layout, and serialize() writes it in one copy. Publish it on a
+    PoseArray publisher (rospy matches a message to the topic by md5sum). Same bytes as
+    pose_array_msg(particles, frame_id, stamp).serialize()."""
+
+    _type, _md5sum, _full_text = PoseArray._type, PoseArray._md5sum, PoseArray._full_text
+    _has_header = True
+    __slots__ = ("header", "block")
+
+    def __init__(self, particles, frame_id, stamp=None):
+        p = np.asarray(particles, dtype=np.float64)
+        self.header = Header(frame_id=frame_id) if stamp is None else Header(frame_id=frame_id, stamp=stamp)
+        self.block = np.zeros((p.shape[0], 7), "<f8")
+        self.block[:, :2] = p[:, :2]
+        self.block[:, 5] = np.sin(p[:, 2] / 2.0)
+        self.block[:, 6] = np.cos(p[:, 2] / 2.0)
+
+    def serialize(self, buff):
+        self.header.serialize(buff)
+        buff.write(struct.pack("<I", self.block.shape[0]))
+        buff.write(self.block.tobytes())
 
 
 def transform_msg(pose, parent, child, stamp=None):

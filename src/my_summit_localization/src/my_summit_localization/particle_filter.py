@@ -35,7 +35,8 @@ Algorithms:
 Update gating and bookkeeping follow amcl_node.cpp laserReceived: the first scan after
 (re)initialisation is always used (no motion); later a scan is used when the odometry
 moved more than update_min_d along x or along y (odom frame, per axis) or more than
-update_min_a in yaw since the last update, or when request_nomotion_update was called.
+update_min_a in yaw since the last update, or when request_nomotion_update was called
+(update_due asks the same without touching the filter, so a node can skip a scan unread).
 Each used scan applies the motion model once for the whole odometry increment, then the
 laser model, and every resample_interval-th used scan resamples.
 
@@ -406,18 +407,15 @@ class ParticleFilter:
                 raise ValueError("update: give the scan's range_max (laser_max_range is not set)")
             range_max = self.cfg.laser_max_range
         self.resampled = False
+        if not self.update_due(odom):
+            return False
         if not self._initialized:
             self._initialized = True
             self._resample_count = 0
             self._force_update = False
         else:
-            delta = motion_model.odom_delta(odom, self._odom_at_update)
-            moved = (abs(delta[0]) > self.cfg.update_min_d or abs(delta[1]) > self.cfg.update_min_d
-                     or abs(delta[2]) > self.cfg.update_min_a)
-            if not (moved or self._force_update):
-                return False
             self._force_update = False
-            self.apply_motion(delta, self._odom_at_update[2])
+            self.apply_motion(motion_model.odom_delta(odom, self._odom_at_update), self._odom_at_update[2])
         self.apply_scan(ranges, angles, laser_pose_in_base, range_min, range_max)
         self._odom_at_update = odom
         self._resample_count += 1
@@ -426,6 +424,21 @@ class ParticleFilter:
         self._map_to_odom = None      # computed from this update's set when first asked
         self._have_update = True
         return True
+
+    def update_due(self, odom_pose):
+        """Would update() use a scan taken at odom_pose (x [m], y [m], yaw [rad])?
+
+        amcl's gating: the first scan after (re)initialisation, a requested no-motion
+        update, or odometry moved more than update_min_d along x or y or more than
+        update_min_a in yaw since the last update. Cheap (no arrays): the node asks before
+        it converts a scan, so the scans the filter would skip cost next to nothing.
+        """
+        if not self._initialized or self._force_update:
+            return True
+        last = self._odom_at_update
+        return (abs(odom_pose[0] - last[0]) > self.cfg.update_min_d
+                or abs(odom_pose[1] - last[1]) > self.cfg.update_min_d
+                or abs(float(motion_model.angle_diff(odom_pose[2], last[2]))) > self.cfg.update_min_a)
 
     def apply_motion(self, delta, old_yaw):
         """Move every particle by the odometry increment delta (odom frame) [m, m, rad]."""

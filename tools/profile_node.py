@@ -1,0 +1,100 @@
+#!/usr/bin/python3
+"""Run a rospy node under cProfile in every thread, counting CPU time (not wall time).
+
+    profile_node.py OUT_PREFIX NODE_SCRIPT [node args...]
+    (as a roslaunch launch-prefix: "/usr/bin/python3 tools/profile_node.py /tmp/amcl")
+
+rospy runs each subscription's receive loop (socket read, deserialization, the user's
+callbacks) in a thread of its own, which `python3 -m cProfile` does not see. Here every
+message received is profiled in its thread, with time.thread_time as the clock, so a
+blocking socket read costs nothing and what is left is the CPU spent per topic. At exit
+(roslaunch's SIGINT ends rospy.spin) the node writes:
+  OUT_PREFIX.pstats        all threads' profiles merged (pstats.Stats(path))
+  OUT_PREFIX.threads.json  {native thread id: topic name} of the receive threads (and
+                           class, name and target of the others still running), so
+                           /proc/<pid>/task/<tid>/stat can be read per topic
+"""
+import atexit
+import cProfile
+import json
+import os
+import pstats
+import runpy
+import sys
+import threading
+import time
+
+
+def main():
+    if len(sys.argv) < 3:
+        sys.exit(__doc__)
+    out_prefix, script = sys.argv[1], sys.argv[2]
+    sys.argv = sys.argv[2:]
+    from rospy.impl import tcpros_base
+    from rospy import topics
+
+    profiles = []               # (Profile, state dict) of every thread seen
+    lock = threading.Lock()
+    local = threading.local()
+    stopping = threading.Event()
+    names = {}
+
+    def profiler():
+        if not hasattr(local, "prof"):
+            local.prof = cProfile.Profile(time.thread_time)
+            local.state = {"active": False}
+            with lock:
+                profiles.append((local.prof, local.state))
+        return local.prof
+
+    def profiled(fn):
+        def wrapper(*args, **kwargs):
+            prof = profiler()
+            if stopping.is_set() or local.state["active"]:
+                return fn(*args, **kwargs)
+            local.state["active"] = True
+            prof.enable()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                prof.disable()
+                local.state["active"] = False
+        return wrapper
+
+    orig_loop = tcpros_base.TCPROSTransport.receive_loop
+
+    def receive_loop(self, msgs_callback):
+        names[threading.get_native_id()] = self.name
+        return orig_loop(self, msgs_callback)
+
+    tcpros_base.TCPROSTransport.receive_loop = receive_loop
+    tcpros_base.TCPROSTransport.receive_once = profiled(tcpros_base.TCPROSTransport.receive_once)
+    topics._SubscriberImpl.receive_callback = profiled(topics._SubscriberImpl.receive_callback)
+
+    def dump():
+        stopping.set()
+        time.sleep(0.2)  # let calls in flight finish
+        with lock:
+            done = [p for p, st in profiles if not st["active"]]
+        stats = None
+        for p in done:
+            p.create_stats()
+            if not p.stats:
+                continue
+            stats = pstats.Stats(p) if stats is None else stats.add(p)
+        if stats is not None:
+            stats.dump_stats(out_prefix + ".pstats")
+        for t in threading.enumerate():  # the other threads: publishers' queues, timers
+            if t.native_id is not None and t.native_id not in names:
+                target = getattr(t, "_target", None)
+                names[t.native_id] = f"{type(t).__name__} {t.name}" + (
+                    f" ({getattr(target, '__qualname__', target)})" if target is not None else "")
+        with open(out_prefix + ".threads.json", "w") as f:
+            json.dump({"pid": os.getpid(), "threads": {str(k): v for k, v in names.items()}}, f)
+
+    atexit.register(dump)
+    runpy.run_path(script, run_name="__main__")
+
+
+if __name__ == "__main__":
+    main()
