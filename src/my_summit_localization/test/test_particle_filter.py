@@ -121,19 +121,27 @@ def test_injection_probability_and_random_particles(world):
 
 
 def test_likelihood_threshold_is_a_floor_under_w_slow(world):
-    """recovery_likelihood_threshold: injection while w_fast is below it even if w_slow is
-    lower still; no effect above it, or with recovery off (recovery_alpha_fast 0)."""
+    """recovery_likelihood_threshold: after global localization, injection while w_fast is
+    below it even if w_slow is lower still; no effect above it, with recovery off
+    (recovery_alpha_fast 0), or once a pose was given (set_pose, the initialpose)."""
     cfg = AmclConfig(min_particles=500, max_particles=500, recovery_alpha_slow=0.001,
                      recovery_alpha_fast=0.1, recovery_likelihood_threshold=0.8)
     pf = ParticleFilter(cfg, world.grid, np.random.default_rng(3))
+    pf.w_slow, pf.w_fast = 0.3, 0.6
+    assert pf.injection_probability() == 0.0   # started from a given pose: amcl's rule alone
+    pf.global_localization()
     pf.w_slow, pf.w_fast = 0.3, 0.6       # w_fast above w_slow: augmented MCL alone injects nothing
     assert pf.injection_probability() == pytest.approx(0.25)
     pf.w_slow, pf.w_fast = 0.9, 0.6       # w_slow above the threshold: augmented MCL as before
     assert pf.injection_probability() == pytest.approx(1.0 / 3.0)
     pf.w_slow, pf.w_fast = 0.3, 0.85
     assert pf.injection_probability() == 0.0
+    pf.set_pose((1.0, 1.0, 0.0), (0.01, 0.01, 0.01))
+    pf.w_slow, pf.w_fast = 0.3, 0.6
+    assert pf.injection_probability() == 0.0
     off = ParticleFilter(dataclasses.replace(cfg, recovery_alpha_slow=0.0, recovery_alpha_fast=0.0),
                          world.grid, np.random.default_rng(3))
+    off.global_localization()
     off.w_slow = off.w_fast = 0.3
     assert off.injection_probability() == 0.0
 

@@ -10,10 +10,12 @@ Algorithms:
 - Sensor resetting (Lenser & Veloso 2000, "Sensor Resetting Localization for Poorly
   Modelled Mobile Robots", ICRA): the fixed threshold that augmented MCL's w_slow
   replaced, kept as a floor under w_slow (recovery_likelihood_threshold, 0 = off; only
-  while recovery is on): the probability is max(0, 1 - w_fast / max(w_slow, threshold)).
-  w_slow learns what a localized robot scores only from a history; after global
-  localization it starts from the spread cloud's low likelihood, against which a wrong
-  but plausible place looks fine.
+  while recovery is on, and only after a global initialization, until the next given
+  pose): the probability is max(0, 1 - w_fast / max(w_slow, threshold)). w_slow learns
+  what a localized robot scores only from a history; after global localization it starts
+  from the spread cloud's low likelihood, against which a wrong but plausible place looks
+  fine. A pose given by /initialpose is trusted as amcl trusts it (its averages restart,
+  so nothing is injected until they part).
 - KLD-sampling (Fox 2003, "Adapting the Sample Size in Particle Filters Through
   KLD-Sampling", IJRR 22(12)): the new set grows until its size n exceeds
   ``(k-1)/(2 kld_err) * (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) * kld_z)^3`` (clamped to
@@ -324,6 +326,7 @@ class ParticleFilter:
         self._map_to_odom = None      # cached map->odom of the last update
         self._have_update = False     # has any update happened (map->odom defined)
         self._hyps = None             # cluster cache, cleared when the set changes
+        self._global_init = False     # spread by global_localization since the last set_pose
         self.resampled = False        # did the last update() resample
         self.last_scan_likelihood = 0.0  # per-beam likelihood of the last scan (w_avg)
         self.set_pose(config.initial_pose(), config.initial_cov())
@@ -372,6 +375,7 @@ class ParticleFilter:
         p[:n] = mean + (z * np.sqrt(np.maximum(evals, 0.0))) @ evecs.T
         p[:n, 2] = motion_model.wrap_angle(p[:n, 2])
         self._reset_set(n)
+        self._global_init = False
 
     def global_localization(self):
         """Spread max_particles uniformly over the free cells (amcl's global_localization)."""
@@ -379,6 +383,7 @@ class ParticleFilter:
         sample_free_poses(self._free_xy, self.grid.resolution, float(self.grid.origin[2]), n,
                           self.rng, out=self._sets[self._current][:n])
         self._reset_set(n)
+        self._global_init = True
 
     def request_nomotion_update(self):
         """Use the next scan even if the robot has not moved (amcl's service)."""
@@ -482,11 +487,12 @@ class ParticleFilter:
     def injection_probability(self):
         """Augmented MCL: probability max(0, 1 - w_fast / w_ref) of a random particle,
         w_ref = max(w_slow, recovery_likelihood_threshold) while recovery is on
-        (recovery_alpha_fast > 0), else w_slow; 0 before the first scan."""
+        (recovery_alpha_fast > 0) after global_localization(), else w_slow; 0 before the
+        first scan."""
         if self.w_slow <= 0.0:
             return 0.0
         w_ref = self.w_slow
-        if self.cfg.recovery_alpha_fast > 0.0:
+        if self.cfg.recovery_alpha_fast > 0.0 and self._global_init:
             w_ref = max(w_ref, self.cfg.recovery_likelihood_threshold)
         return max(0.0, 1.0 - self.w_fast / w_ref)
 
