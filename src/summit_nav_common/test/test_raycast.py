@@ -118,3 +118,30 @@ def test_ray_along_a_cell_boundary_ends(tmp_path):
         "print('ok')\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "ok" in r.stdout, r.stderr[-2000:]
+
+
+def test_incidence_on_cell_edges_and_rectangle_faces():
+    """grid_hit_cos_incidence: the normal of the cell edge a ray stops at; rect_ray_hits:
+    the normal of the face it enters by, in the rectangle's own frame."""
+    occ = np.zeros((40, 40), bool)
+    occ[:, 30] = True                       # a vertical wall: cells x 30-31
+    occ[5, :] = True                        # a horizontal wall: cells y 5-6
+    dist = raycast.distance_field(occ)
+    ang = np.radians([0.0, 30.0, -60.0, -100.0, -170.0 + 360.0])
+    t = raycast.cast_rays(occ, dist, 10.5, 20.5, ang, 100.0)
+    cos_inc = raycast.grid_hit_cos_incidence(10.5, 20.5, ang, t)
+    # 0, 30 deg: the vertical wall (normal x); -60, -100 deg: the horizontal one (normal y);
+    # 190 deg: the map's west edge is open here, nothing hit within 100 cells is not asked.
+    np.testing.assert_allclose(cos_inc[:4], np.abs([1.0, math.cos(math.radians(30.0)),
+                                                    math.sin(math.radians(-60.0)), math.sin(math.radians(-100.0))]))
+    # A box rotated by 0.4 rad, seen head-on along its x axis and then 20 deg off it.
+    rect = [(5.0, 0.0, 0.4, 1.0, 0.5)]
+    ox, oy = 5.0 - 4.0 * math.cos(0.4), -4.0 * math.sin(0.4)
+    d, c = raycast.rect_ray_hits(ox, oy, np.array([0.4, 0.4 + math.radians(5.0), 0.4 + math.pi]), rect, 30.0)
+    assert d[0] == pytest.approx(3.0) and c[0] == pytest.approx(1.0)
+    assert c[1] == pytest.approx(math.cos(math.radians(5.0)))
+    assert d[2] == 30.0 and c[2] == 1.0     # looking away: nothing hit
+    side = raycast.rect_ray_hits(5.0 - 3.0 * math.sin(0.4), 3.0 * math.cos(0.4), np.array([0.4 - math.pi / 2 + 0.1]),
+                                 rect, 30.0)
+    assert side[0][0] == pytest.approx(2.5 / math.cos(0.1)) and side[1][0] == pytest.approx(math.cos(0.1))
+    np.testing.assert_array_equal(raycast.rect_ray_distances(ox, oy, np.array([0.4]), rect, 30.0), d[:1])

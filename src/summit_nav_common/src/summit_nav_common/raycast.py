@@ -168,6 +168,25 @@ def cast_rays_reference(occupied, ox, oy, angles, tmax):
     return out
 
 
+def grid_hit_cos_incidence(ox, oy, angles, ranges):
+    """|cos| of the incidence angle of each ray on the cell edge it stopped at.
+
+    ox, oy [cells], angles [rad, grid frame], ranges [cells] from cast_rays. A ray stops
+    on the boundary of the first occupied cell square, so at the hit point one grid
+    coordinate is an integer: on a vertical edge (x integer) the surface normal is the
+    x axis and |cos(incidence)| = |cos(angle)|, on a horizontal edge |sin(angle)|. The
+    normal is the cell edge's, not a smoothed wall's: a wall at an angle to the grid is a
+    staircase of edges. Rays that stopped at a corner take the edge whose coordinate is
+    closer to an integer (either is a true side of the square).
+    """
+    angles = np.asarray(angles, dtype=np.float64)
+    c, s = np.cos(angles), np.sin(angles)
+    hx = ox + ranges * c
+    hy = oy + ranges * s
+    on_vertical_edge = np.abs(hx - np.round(hx)) <= np.abs(hy - np.round(hy))
+    return np.where(on_vertical_edge, np.abs(c), np.abs(s))
+
+
 def rect_ray_distances(ox, oy, angles, rects, tmax):
     """Distances [m] from (ox, oy) [m] along ``angles`` [rad] to oriented rectangles.
 
@@ -175,11 +194,23 @@ def rect_ray_distances(ox, oy, angles, rects, tmax):
     Slab method, vectorized over beams x rectangles. Returns tmax where no rectangle is
     hit ahead of the origin; a ray starting inside a rectangle gets 0.
     """
+    return rect_ray_hits(ox, oy, angles, rects, tmax)[0]
+
+
+def rect_ray_hits(ox, oy, angles, rects, tmax):
+    """rect_ray_distances, and the |cos| of each ray's incidence on the face it hits.
+
+    Returns (distances [m], cos_incidence) of shape (n_rays,); cos_incidence is 1 where no
+    rectangle is hit (or the ray starts inside one). The face hit is the slab that sets
+    the entry distance: the x faces (normal along the rectangle's yaw) when the x slab is
+    entered last, the y faces otherwise.
+    """
     angles = np.asarray(angles, dtype=np.float64)
     out = np.full(angles.shape, float(tmax))
+    cos_inc = np.ones(angles.shape)
     rects = np.asarray(rects, dtype=np.float64).reshape(-1, 5)
     if rects.shape[0] == 0:
-        return out
+        return out, cos_inc
     cx, cy, yaw, hx, hy = (rects[:, i][:, None] for i in range(5))
     c, s = np.cos(yaw), np.sin(yaw)
     # Ray origin and direction in each rectangle's frame.
@@ -201,4 +232,12 @@ def rect_ray_distances(ox, oy, angles, rects, tmax):
     tfar = np.minimum(tfx, tfy)
     hit = (tnear <= tfar) & (tfar >= 0)
     t = np.where(hit, np.maximum(tnear, 0.0), np.inf)
-    return np.minimum(out, t.min(axis=0))
+    face_cos = np.where(tnx >= tny, np.abs(dx), np.abs(dy))
+    face_cos = np.where(tnear > 0.0, face_cos, 1.0)  # started inside: no face crossed
+    nearest = t.argmin(axis=0)
+    cols = np.arange(angles.shape[0])
+    t_best = t[nearest, cols]
+    hit_any = t_best < out
+    out = np.where(hit_any, t_best, out)
+    cos_inc = np.where(hit_any, face_cos[nearest, cols], cos_inc)
+    return out, cos_inc

@@ -18,6 +18,7 @@ import numpy as np
 from summit_nav_common import geometry
 
 from . import robot as rb
+from .laser_model import DEFAULT_LASER_MODEL, make_laser_model, report
 from .world import World, WorldError, rects_overlap
 
 DRIVES = ("diff", "omni")
@@ -27,16 +28,22 @@ CONTACT_RESET = 0.05
 
 @dataclass
 class LaserParams:
-    """Hokuyo UTM-30LX-like laser (SPEC.md), mounted at ``mount`` in base_footprint."""
+    """Hokuyo UTM-30LX-like laser (SPEC.md), mounted at ``mount`` in base_footprint.
+
+    ``model`` names the range model (laser_model.LASER_MODELS): ``utm30lx`` (the
+    datasheet's noise, mixed pixels, grazing dropouts) or ``ideal`` (Gaussian of
+    ``noise_sigma``, which only that model uses).
+    """
 
     n_beams: int = 1081
     angle_min: float = -2.356194490192345   # [rad] (-135 deg)
     angle_max: float = 2.356194490192345    # [rad] (+135 deg)
     range_min: float = 0.10                 # [m]
     range_max: float = 30.0                 # [m]
-    noise_sigma: float = 0.01               # Gaussian range noise [m]
+    noise_sigma: float = 0.01               # Gaussian range noise of the ideal model [m]
     rate: float = 40.0                      # [Hz] of simulated time
     mount: tuple = (0.25, 0.0, 0.0)         # (x [m], y [m], yaw [rad]) in base_footprint
+    model: str = DEFAULT_LASER_MODEL        # range model: utm30lx | ideal
 
     @property
     def angle_increment(self):
@@ -66,6 +73,7 @@ class RobotState:
     free_travel: float = 0.0          # [m] moved since the last blocked move
     odom_vel: tuple = (0.0, 0.0, 0.0)
     rng: np.random.Generator = field(default=None, repr=False)
+    range_model: object = field(default=None, repr=False)  # laser_model.IdealLaser / Utm30lxLaser
 
     def rect(self):
         """Footprint as an oriented rectangle (cx, cy, yaw, half_length, half_width)."""
@@ -94,9 +102,15 @@ class Simulation:
         if drive not in DRIVES:
             raise WorldError(f"robot '{name}': drive must be one of {DRIVES}, got {drive!r}")
         params = params or rb.RobotParams()
-        state = RobotState(name=name, drive=drive, params=params, laser=laser or LaserParams(),
+        laser = laser or LaserParams()
+        try:
+            range_model = make_laser_model(laser.model, laser.noise_sigma)
+        except ValueError as e:
+            raise WorldError(f"robot '{name}': {e}") from None
+        state = RobotState(name=name, drive=drive, params=params, laser=laser,
                            pose=(float(x), float(y), geometry.wrap_angle(float(yaw))),
-                           rng=np.random.default_rng([self._seed, len(self.robots)]))
+                           rng=np.random.default_rng([self._seed, len(self.robots)]),
+                           range_model=range_model)
         self._check_free(state, state.pose, spawning=True)
         self.robots[name] = state
         return state
@@ -217,17 +231,21 @@ class Simulation:
     def scan(self, name, noise=True):
         """One laser scan of robot ``name``: ranges (n_beams,) float32 [m].
 
-        Beams with no return within range_max report +inf (REP 117); noisy ranges are
-        clipped to [range_min, range_max].
+        The robot's range model (LaserParams.model) turns the exact ranges into what the
+        scanner reports; noise=False gives the exact ranges. Beams with no return within
+        range_max report +inf (REP 117); other ranges are clipped to [range_min, range_max].
         """
         state = self.robot(name)
         lx, ly, lyaw = self.laser_pose(state)
         laser = state.laser
         others = [o.rect() for o in self.robots.values() if o is not state]
-        ranges = self.world.cast(lx, ly, laser.angles() + lyaw, laser.range_max, others)
-        no_return = ranges >= laser.range_max
-        if noise and laser.noise_sigma > 0:
-            ranges = ranges + state.rng.normal(0.0, laser.noise_sigma, ranges.shape)
-        ranges = np.clip(ranges, laser.range_min, laser.range_max)
-        ranges[no_return] = np.inf
-        return ranges.astype(np.float32)
+        angles = laser.angles() + lyaw
+        if noise and state.range_model.needs_incidence:
+            ranges, cos_incidence = self.world.cast_hits(lx, ly, angles, laser.range_max, others)
+        else:
+            ranges = self.world.cast(lx, ly, angles, laser.range_max, others)
+            cos_incidence = None
+        if not noise:
+            return report(ranges, laser.range_min, laser.range_max, ranges >= laser.range_max)
+        return state.range_model.measure(ranges, cos_incidence, laser.angle_increment,
+                                         laser.range_min, laser.range_max, state.rng)

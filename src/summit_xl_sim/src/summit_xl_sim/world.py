@@ -166,3 +166,26 @@ class World:
         if rects:
             ranges = np.minimum(ranges, raycast.rect_ray_distances(x, y, angles, rects, range_max))
         return ranges
+
+    def cast_hits(self, x, y, angles, range_max, extra_rects=()):
+        """cast, and the |cos| of each beam's incidence angle on the surface it hits.
+
+        Returns (ranges [m], cos_incidence), both (n_beams,). Walls: the normal of the
+        grid cell edge the beam stops at (raycast.grid_hit_cos_incidence); boxes and
+        ``extra_rects``: the normal of the rectangle face. cos_incidence is 1 for beams
+        that hit nothing.
+        """
+        gx, gy = self.to_grid(x, y)
+        tmax = range_max / self.resolution
+        grid_angles = np.asarray(angles, dtype=np.float64) - self.origin[2]
+        cells = raycast.cast_rays(self.walls, self.dist, gx, gy, grid_angles, tmax)
+        cos_inc = raycast.grid_hit_cos_incidence(gx, gy, grid_angles, cells)
+        ranges = cells * self.resolution
+        rects = list(self.boxes.values()) + list(extra_rects)
+        if rects:
+            rect_t, rect_cos = raycast.rect_ray_hits(x, y, angles, rects, range_max)
+            nearer = rect_t < ranges
+            ranges = np.where(nearer, rect_t, ranges)
+            cos_inc = np.where(nearer, rect_cos, cos_inc)
+        cos_inc[ranges >= range_max] = 1.0
+        return ranges, cos_inc
