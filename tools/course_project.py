@@ -35,7 +35,8 @@ import time
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from roslaunch_session import stop_process_tree  # noqa: E402
-from summit_nav_common.geometry import compose, quaternion_to_yaw as yaw_of, relative, wrap_angle as wrap  # noqa: F401
+from summit_nav_common.geometry import (compose, quaternion_to_yaw as yaw_of, relative,  # noqa: F401
+                                       wrap_angle as wrap, yaw_to_quaternion_zw)
 
 TOUR_FILE = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building_tour.yaml")
 WORLD_DESCRIPTION = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.world.yaml")
@@ -277,7 +278,7 @@ class CourseProject:
         goal.target_pose.header.frame_id = "map"
         goal.target_pose.header.stamp = rospy.Time.now()
         goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = x, y
-        goal.target_pose.pose.orientation.z, goal.target_pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        goal.target_pose.pose.orientation.z, goal.target_pose.pose.orientation.w = yaw_to_quaternion_zw(yaw)
         self.client.send_goal(goal)
         end = time.monotonic() + timeout_wall
         while not self.client.wait_for_result(rospy.Duration(0.1)):

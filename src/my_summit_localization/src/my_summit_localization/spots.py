@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import yaml
 
 from summit_nav_common import files
-from summit_nav_common.geometry import yaw_of_quaternion
+from summit_nav_common.geometry import yaw_of_quaternion, yaw_to_quaternion_zw
 
 END_LABEL = "end"          # the label that writes the file instead of storing a spot
 DEFAULT_FRAME = "map"      # frame of the poses when a file does not name one
@@ -52,7 +52,7 @@ class Spot:
     @classmethod
     def from_xy_yaw(cls, x, y, yaw):
         """Spot at (x [m], y [m]) facing yaw [rad] about z."""
-        return cls(float(x), float(y), 0.0, 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+        return cls(float(x), float(y), 0.0, 0.0, 0.0, *yaw_to_quaternion_zw(yaw))
 
     @property
     def yaw(self):
