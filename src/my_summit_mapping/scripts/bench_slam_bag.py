@@ -23,7 +23,7 @@ are reported. Every process started here is stopped, also on failure; a node cra
 input or a timeout ends with a message and a non-zero exit status.
 
 Usage: bench_slam_bag.py LOG [--seeds 1 2 3] [--rate 0.5] [--json PATH] [--out DIR]
-                             [--set name=value ...] [--max-scans N]
+                             [--set name=value ...] [--duration S]
   LOG: a CARMEN log (.log / .log.gz) or a bag written by carmen_to_bag.py.
   e.g. bench_slam_bag.py data/carmen/intel-corrected.log.gz --seeds 1 2 --rate 4
 """
@@ -296,18 +296,18 @@ def make_bag(log, seed, tmp):
     return path
 
 
-def slice_bag(bag, max_scans, tmp):
-    """A copy of `bag` with its first max_scans scans (and the messages up to the last)."""
+def slice_bag(bag, seconds, tmp):
+    """A copy of `bag` with the messages up to `seconds` [s] after its first scan."""
     import rosbag
     from my_summit_mapping import carmen_bag
-    out = os.path.join(tmp, os.path.basename(bag)[:-4] + f"_first{max_scans}.bag")
+    out = os.path.join(tmp, os.path.basename(bag)[:-4] + f"_first{seconds:g}s.bag")
+    end = None
     with rosbag.Bag(bag) as src, rosbag.Bag(out, "w") as dst:
-        n = 0
         for topic, msg, t, conn in src.read_messages(return_connection_header=True):
-            if topic == carmen_bag.SCAN_TOPIC:
-                n += 1
-                if n > max_scans:
-                    break
+            if end is None and topic == carmen_bag.SCAN_TOPIC:
+                end = t.to_sec() + seconds
+            if end is not None and t.to_sec() > end:
+                break
             dst.write(topic, msg, t, connection_header=conn)
     return out
 
@@ -317,7 +317,7 @@ def main(argv=None):
     parser.add_argument("log", help="CARMEN log (.log/.log.gz) or a bag from carmen_to_bag.py")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1], help="one run per seed")
     parser.add_argument("--rate", type=float, default=0.5, help="rosbag play rate (0.5: the standard evaluation)")
-    parser.add_argument("--max-scans", type=int, help="only the first N scans of the log")
+    parser.add_argument("--duration", type=float, help="only the first DURATION seconds of the log")
     parser.add_argument("--json", help="write the results as JSON to this path")
     parser.add_argument("--out", help="directory for the map PNGs and the logs (default output/slam_bag)")
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="override a node parameter")
@@ -350,8 +350,8 @@ def run_seeds(args, overrides, out):
         for seed in args.seeds:
             try:
                 bag = make_bag(args.log, seed, tmp)
-                if args.max_scans:
-                    bag = slice_bag(bag, args.max_scans, tmp)
+                if args.duration:
+                    bag = slice_bag(bag, args.duration, tmp)
             except (OSError, ValueError) as e:
                 print(f"bench_slam_bag: error: {e}", file=sys.stderr)
                 return 2
@@ -376,7 +376,7 @@ def run_seeds(args, overrides, out):
     if args.json:
         with open(args.json, "w") as f:
             json.dump(dict(log=os.path.abspath(args.log), rate=args.rate, seeds=args.seeds, runs=results,
-                           median=med, worst=worst, max_scans=args.max_scans), f, indent=2)
+                           median=med, worst=worst, duration=args.duration), f, indent=2)
     return 0
 
 
