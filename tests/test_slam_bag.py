@@ -3,6 +3,7 @@ played from a rosbag (bench_slam_bag.py: roscore, the node, rosbag play --clock)
 runner's refusal of bad input."""
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -69,3 +70,24 @@ def test_node_parameters_follow_the_evaluation_settings():
     scans.range_max = 30.0
     p = bench_slam_bag.node_params(scans, {"particles": 5})
     assert p["maxUrange"] == pytest.approx(29.99) and p["maxRange"] == pytest.approx(30.01) and p["particles"] == 5
+
+
+@pytest.mark.integration
+def test_runner_reports_a_node_that_dies_and_stops_everything(tmp_path):
+    import psutil
+    before = {p.pid for p in psutil.process_iter()}
+    proc = subprocess.run([sys.executable, RUNNER, INTEL, "--duration", "10", "--set", "particles=0",
+                           "--out", str(tmp_path / "o")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          text=True, timeout=180)
+    assert proc.returncode == 1
+    assert "slam_gmapping ended (exit status 1)" in proc.stderr and "'particles'" in proc.stderr, proc.stderr
+    # nothing it started is left: the master on its port, the node of this workspace
+    roscore_log = (tmp_path / "o" / "slam_bag_seed1_roscore.log").read_text()
+    port = re.search(r"ROS_MASTER_URI=http://[^:]+:(\d+)", roscore_log).group(1)
+    node = os.path.join(os.path.dirname(RUNNER), "..", "nodes", "slam_gmapping")
+    left = []
+    for p in psutil.process_iter(["pid", "cmdline"]):
+        cmd = p.info["cmdline"] or []
+        if p.pid not in before and (node in cmd or ("-p" in cmd and port in cmd)):
+            left.append(cmd)
+    assert not left, left

@@ -335,7 +335,11 @@ def main(argv=None):
         return 2
     os.makedirs(out, exist_ok=True)
     if args.child_seed is not None:   # one run, in its own process (rospy initializes once per process)
-        result = run_once(args.log, args.child_seed, args.rate, overrides, out)
+        try:
+            result = run_once(args.log, args.child_seed, args.rate, overrides, out)
+        except (RuntimeError, ValueError, OSError) as e:
+            print(f"bench_slam_bag: error: seed {args.child_seed}: {e}", flush=True)
+            return 1
         print("RESULT " + json.dumps(result), flush=True)
         return 0
     return run_seeds(args, overrides, out)
