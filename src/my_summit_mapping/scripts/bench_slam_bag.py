@@ -58,6 +58,9 @@ IDLE_CPU = 0.05         # [s CPU] the node counts as idle when it used less than
 IDLE_WINDOW = 2.0       # [s wall] ... over this long after the bag ended
 IDLE_TIMEOUT = 120.0    # [s wall] at most this long waiting for it to be idle
 TIMEOUT_FACTOR = 2.0    # the run may take this many times the bag's duration / rate (+ START_TIMEOUT)
+CLOCK_TAIL = 2.0        # [s sim] /clock kept running after the bag (the node's map -> odom
+                        # broadcasts run on sim time: without it the last update is never sent)
+CLOCK_TAIL_STEP = 0.01  # [s sim] between those /clock messages, published in real time
 
 
 # ----------------------------------------------------------------- /proc of the node
@@ -213,6 +216,8 @@ def run_once(bag, seed, rate, overrides, out_dir):
         alive = [("roscore", core, logs["roscore"]), (NODE_NAME, node, logs["node"])]
         rospy.init_node("bench_slam_bag", anonymous=True, disable_signals=True)
         rec = Recorder()
+        from rosgraph_msgs.msg import Clock
+        clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
 
         def node_subscribed():
             subs = dict((t, n) for t, n in master.getSystemState()[1])
@@ -238,6 +243,12 @@ def run_once(bag, seed, rate, overrides, out_dir):
             if now - last < IDLE_CPU:
                 break
             last = now
+        # its last map -> odom
+        t_end = float(scans.stamps[-1])
+        for k in range(1, int(round(CLOCK_TAIL / CLOCK_TAIL_STEP)) + 1):
+            clock_pub.publish(Clock(clock=rospy.Time.from_sec(t_end + k * CLOCK_TAIL_STEP)))
+            time.sleep(CLOCK_TAIL_STEP)
+        time.sleep(0.5)   # the last broadcasts reach the recorder
         cpu = cpu_seconds(node.pid) - cpu0
         rss = peak_rss_mb(node.pid)
         with rec.lock:
@@ -264,6 +275,10 @@ def run_once(bag, seed, rate, overrides, out_dir):
         params=params, logs=logs)
     if map_msg is None:
         raise RuntimeError(f"{NODE_NAME} published no map; last lines of {logs['node']}:\n{tail(logs['node'])}")
+    series = os.path.join(out_dir, f"slam_bag_seed{seed}.npz")
+    np.savez_compressed(series, scan_stamps=scans.stamps, odometry=scans.odometry, reference=scans.reference,
+                        online=traj, map_to_odom=m2o)
+    result["series"] = series
     png = os.path.join(out_dir, f"slam_bag_seed{seed}.png")
     info = map_msg.info
     grid = (np.asarray(map_msg.data, np.int8), info.width, info.height, info.resolution,
