@@ -15,6 +15,9 @@ beside each time. Sections:
   sim_rtf     the simulator's real-time factor with one robot, running as fast as it can
               with every topic subscribed (/clock, /tf, /odom, ground truth, 40 Hz scans)
   slam_carmen the SLAM core offline on the CARMEN Intel and ACES logs
+  slam_bag    slam_gmapping (ROS node, the real node's evaluation parameters) on the
+              CARMEN Intel and ACES logs played from a rosbag (rosbag play --clock -r
+              BAG_RATE), seeds 1 2 3: online aligned ATE, CPU per filter update, peak RSS
   slam_sim    slam_gmapping (ROS node, course parameters, 30 particles) over the tour of
               the built-in world: ATE vs ground truth, map precision / recall, CPU per
               simulated second, peak RSS
@@ -39,6 +42,7 @@ beside each time. Sections:
     make bench                      all sections
     make bench BENCH_ARGS="--only laser --runs 3"
     make bench BENCH_ARGS="--only slam_carmen --carmen-logs intel"
+    make bench BENCH_ARGS="--only slam_bag --carmen-logs intel --bag-rate 1"
     make bench-page                 re-render the page from docs/bench.json
 """
 import argparse
@@ -179,6 +183,27 @@ def bench_slam_carmen(logs=None):
         return json.load(f)
 
 
+BAG_RATE = 4.0          # rosbag play rate of slam_bag: on 2 cores at load ~9 the node kept up
+                        # (Intel: every update done, about 0.25 core) and its online ATE equals
+                        # the offline core's on the same seed and scans
+BAG_SEEDS = (1, 2, 3)   # as the real gmapping's three runs
+CARMEN_LOGS = {"intel": "intel-corrected.log.gz", "aces": "aces-corrected.log.gz"}
+
+
+def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS):
+    """bench_slam_bag.py on each of `logs` (names, default intel and aces)."""
+    script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_bag.py")
+    res = {"rate": rate, "logs": {}}
+    for name in logs or list(CARMEN_LOGS):
+        path = os.path.join(OUT, f"bench_slam_bag_{name}.json")
+        subprocess.run([sys.executable, script, os.path.join(DATA, "carmen", CARMEN_LOGS[name]), "--rate", str(rate),
+                        "--seeds"] + [str(s) for s in seeds] + ["--json", path, "--out",
+                                                                 os.path.join(OUT, f"slam_bag_{name}")], check=True)
+        with open(path) as f:
+            res["logs"][name] = json.load(f)
+    return res
+
+
 def bench_slam_sim(runs):
     script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_sim.py")
     path = os.path.join(OUT, "bench_slam_sim.json")
@@ -287,7 +312,9 @@ def main():
     ap.add_argument("--only", action="append", help=", ".join(bench_report.SECTIONS) + " (repeatable)")
     ap.add_argument("--runs", type=int, default=5, help="runs per figure (median reported)")
     ap.add_argument("--carmen-logs", nargs="+", metavar="LOG",
-                    help="slam_carmen: only these CARMEN logs (intel, aces; default both)")
+                    help="slam_carmen, slam_bag: only these CARMEN logs (intel, aces; default both)")
+    ap.add_argument("--bag-rate", type=float, default=BAG_RATE,
+                    help=f"slam_bag: rosbag play rate (default {BAG_RATE:g})")
     ap.add_argument("--render", action="store_true",
                     help="only re-render docs/benchmarks.md and the README's table from docs/bench.json")
     args = ap.parse_args()
@@ -299,7 +326,7 @@ def main():
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
-    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_sim", "amcl", "planning", "explore", "patrol",
+    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_sim", "amcl", "planning", "explore", "patrol",
                          "multi_robot"]
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
@@ -308,6 +335,7 @@ def main():
         "laser": lambda: bench_laser(args.runs),
         "sim_rtf": lambda: bench_sim_rtf_runs(max(1, min(args.runs, 3))),
         "slam_carmen": lambda: bench_slam_carmen(args.carmen_logs),
+        "slam_bag": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate),
         "slam_sim": lambda: bench_slam_sim(args.runs),
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "planning": lambda: bench_planning(args.runs),

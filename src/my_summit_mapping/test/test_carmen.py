@@ -62,3 +62,46 @@ def test_drift_is_seeded_and_grows_with_motion():
     assert metrics.ate_rmse(a, ref) > 0.05
     still = np.zeros((50, 3))
     assert_allclose(carmen.make_drifted_odometry(still, np.random.default_rng(2)), still)
+
+
+def test_drift_is_probabilistic_robotics_rot1_trans_rot2():
+    # straight 1 m steps along x: with translation noise only, every noisy step stays on
+    # the direction of travel (rot1 = rot2 = 0 exactly): no lateral error, no heading error
+    ref = np.column_stack((np.arange(200.0), np.zeros(200), np.zeros(200)))
+    odom = carmen.make_drifted_odometry(ref, np.random.default_rng(3), trans_per_trans=0.1,
+                                        trans_per_rot=0.0, rot_per_trans=0.0, rot_per_rot=0.0)
+    assert_allclose(odom[:, 1:], 0.0, atol=1e-12)
+    steps = np.diff(odom[:, 0])
+    assert np.std(steps) == pytest.approx(0.1, rel=0.15) and np.mean(steps) == pytest.approx(1.0, abs=0.03)
+    # heading noise per metre only: rot1 and rot2 each get std 0.02 rad, the step's
+    # heading change std 0.02 * sqrt(2); the step length stays 1 m
+    odom = carmen.make_drifted_odometry(ref, np.random.default_rng(4), trans_per_trans=0.0,
+                                        trans_per_rot=0.0, rot_per_trans=0.02, rot_per_rot=0.0)
+    inc = carmen.relative_increments(odom)
+    assert_allclose(np.hypot(inc[:, 0], inc[:, 1]), 1.0, atol=1e-12)
+    assert np.std(inc[:, 2]) == pytest.approx(0.02 * math.sqrt(2), rel=0.15)
+    # a turn in place with translation noise per radian: the base moves along its heading
+    # (rot1 = 0 when there is no direction of travel), never sideways
+    turn = np.column_stack((np.zeros(100), np.zeros(100), carmen.wrap_angle(0.3 * np.arange(100))))
+    odom = carmen.make_drifted_odometry(turn, np.random.default_rng(5), trans_per_trans=0.0,
+                                        trans_per_rot=0.1, rot_per_trans=0.0, rot_per_rot=0.0)
+    inc = carmen.relative_increments(odom)
+    assert_allclose(inc[:, 1], 0.0, atol=1e-12)
+    assert np.std(inc[:, 0]) == pytest.approx(0.1 * 0.3, rel=0.2)
+    # driving backwards is not a half turn: its rotation noise is that of a straight step
+    back = ref[::-1].copy()
+    odom = carmen.make_drifted_odometry(back, np.random.default_rng(6), 0.0, 0.0, 0.0, rot_per_rot=0.5)
+    assert_allclose(odom, back, atol=1e-9)
+
+
+def test_read_carmen_laser_offset_and_bad_files(tmp_path):
+    path = str(tmp_path / "off.log")
+    with open(path, "w") as f:
+        f.write("PARAM robot_frontlaser_offset 0.25 nohost 0\nFLASER 2 1.0 2.0 0 0 0 0 0 0 1.0 h 1.0\n")
+    assert carmen.read_carmen(path).laser_offset == 0.25
+    with pytest.raises(FileNotFoundError):
+        carmen.read_carmen(str(tmp_path / "missing.log.gz"))
+    trunc = tmp_path / "trunc.log.gz"
+    trunc.write_bytes(open(INTEL, "rb").read()[:5000])
+    with pytest.raises(ValueError, match=f"{trunc}: not a readable CARMEN log"):
+        carmen.read_carmen(str(trunc))
