@@ -55,7 +55,7 @@ Failure modes handled on purpose:
   never moves): the current pose's clearance c0 < 0 switches to escape mode, where
   trajectories are valid if their clearance never drops below min(c0, 0) by more than
   ESCAPE_TOL (the clearance along a wall of laser-marked cells wobbles by millimetres)
-  nor past the unpadded footprint's edge (escape_limit: footprint_padding is the margin),
+  nor past the unpadded footprint's edge (footprint_padding is the margin),
   and slow reversing (down to -ESCAPE_VEL_X) is sampled too, where it regains clearance
   or goes back along the plan: a robot stopped nose-in or parallel against a wall has no
   forward motion that does not cut into its clearance, and a robot in a narrow gap whose
@@ -499,25 +499,70 @@ def obstacle_distance(costmap):
                                  cv2.DIST_MASK_PRECISE) * costmap.resolution
 
 
-def escape_limit(floor, padding):
-    """The lowest clearance [m] escape mode lets a trajectory reach, from its clearance
-    floor [m] (at most 0): ESCAPE_TOL below it, for the millimetres the clearance along a
-    wall of laser-marked cells wobbles by, but with a footprint_padding > 0 [m] never past
-    the unpadded footprint's edge (-padding): the padding is the margin that keeps the
-    robot's acceleration ramp and command latency off the wall. A robot already past that
-    edge may lose only ESCAPE_SLACK. With no padding there is no margin to keep (the
-    robot may graze walls by up to ESCAPE_TOL)."""
-    if padding <= 0.0:
-        return floor - ESCAPE_TOL
-    return max(floor - ESCAPE_TOL, min(-padding, floor - ESCAPE_SLACK))
+@dataclass(frozen=True)
+class ClearancePolicy:
+    """How low a motion's footprint clearance [m] (footprint_clearance: negative once the
+    padded footprint overlaps a blocked cell) may go, from the robot's clearance c0 [m]
+    now and the footprint_padding [m]: every limit DWA and the recoveries check against.
 
+    - ``normal``: 0, the padded footprint never reaches a blocked cell (DWA with c0 >= 0
+      off the inscribed zone; plain dwa_local_planner).
+    - ``escape(floor)``: escape mode (c0 < 0, or no ordinary trajectory): ESCAPE_TOL
+      below the clearance floor, for the millimetres the measured clearance along a wall
+      of laser-marked cells wobbles by, but with a padding never past the unpadded
+      footprint's edge (-padding), and once past it only ESCAPE_SLACK below the floor.
+      With no padding there is no margin to keep.
+    - ``escape_floor(c0, previous)``: the floor escape mode keeps, min(c0, 0), that only
+      rises while the robot escapes; when the clearance falls below what it allows it
+      starts over from c0 with no slack left (ESCAPE_SLACK below c0).
+    - ``creep(floor, c0)``: a slow forward or turning move judged only up to where it
+      could stop: the escape limit, but no lower than c0 and never within ESCAPE_SLACK
+      of touching.
+    - ``creep_back(c0)``: the clearance a slow reversing move must be back at by the time
+      it could stop (ESCAPE_SLACK more than now); ``back_out(c0)``: at the end of the
+      scored horizon (ESCAPE_GAIN more), unless it goes back along the plan.
+    - ``recovery(c0)``: a recovery's motion (rotate_recovery, back_up): 0, or from inside
+      the padding ESCAPE_TOL lower but not past the unpadded edge, and never more than
+      ESCAPE_SLACK below c0.
+    - ``rotation(c0)``: the in-place turn to the goal heading: ESCAPE_SLACK below
+      min(c0, 0).
+    """
 
-def recovery_limit(c0, padding):
-    """The lowest clearance [m] a recovery's motion (rotate_recovery, back_up) may reach
-    from a pose of clearance c0 [m]: 0, or from inside footprint_padding [m] (c0 < 0)
-    ESCAPE_TOL lower but not past the unpadded footprint's edge, and never more than
-    ESCAPE_SLACK below c0 once past it."""
-    return min(0.0, max(c0 - ESCAPE_TOL, -padding), c0 - ESCAPE_SLACK)
+    padding: float = 0.0     # [m] footprint_padding
+    normal = 0.0
+
+    def escape(self, floor):
+        if self.padding <= 0.0:
+            return floor - ESCAPE_TOL
+        return max(floor - ESCAPE_TOL, min(-self.padding, floor - ESCAPE_SLACK))
+
+    def escape_floor(self, c0, previous):
+        floor = min(c0, 0.0)
+        if previous is not None:
+            floor = max(floor, previous)
+        if self.escape(floor) > c0:
+            floor = c0 + ESCAPE_TOL - ESCAPE_SLACK
+            if self.escape(floor) > c0 - ESCAPE_SLACK + 1e-9:
+                floor = c0
+        return floor
+
+    def creep(self, floor, c0):
+        return max(self.escape(floor), min(c0, ESCAPE_SLACK))
+
+    @staticmethod
+    def creep_back(c0):
+        return c0 + ESCAPE_SLACK
+
+    @staticmethod
+    def back_out(c0):
+        return c0 + ESCAPE_GAIN
+
+    def recovery(self, c0):
+        return min(0.0, max(c0 - ESCAPE_TOL, -self.padding), c0 - ESCAPE_SLACK)
+
+    @staticmethod
+    def rotation(c0):
+        return min(0.0, c0) - ESCAPE_SLACK
 
 
 def footprint_checks(footprint):
@@ -613,6 +658,7 @@ class DWAPlanner:
             holonomic = config.holonomic_robot or (config.max_vel_y > 0 and config.vy_samples > 1)
         self.holonomic = bool(holonomic)
         self.covers, self.corners = footprint_checks(footprint)
+        self.policy = ClearancePolicy(footprint.padding)
         self.oscillation = OscillationFlags(config.oscillation_reset_dist, config.oscillation_reset_angle)
         self.plan = None
         self.goal_yaw = 0.0
@@ -740,29 +786,9 @@ class DWAPlanner:
                                              np.array(pose[1]), np.array(pose[2])))
         cc = costmap.cost_at(pose[0], pose[1])
         escape = force_escape or c0 < 0 or cc is None or cc >= INSCRIBED_INFLATED_OBSTACLE
-        # The clearance floor of escape mode only rises while the robot stays in it, so the
-        # slack cannot be spent again each cycle to creep into the wall.
-        floor = min(c0, 0.0)
-        if escape and self._escape_floor is not None:
-            floor = max(floor, self._escape_floor)
-        if escape and escape_limit(floor, self.footprint.padding) > c0:
-            # The clearance is below what the floor allows (new obstacle cells marked,
-            # odometry drift, the robot's own motion): every sample starts below the limit
-            # and none would be valid, a standstill recoveries cannot end (they keep the
-            # cells near the robot). Start over from here, with no slack to spend (a
-            # limit ESCAPE_SLACK below c0): the trajectories are simulated at constant
-            # velocity while the robot ramps up to it, so its own motion can fall a few
-            # millimetres short of what was checked, and a fresh ESCAPE_TOL after each such
-            # reset let it creep ever deeper (2.4 cm in a replay of a willow-full wedge).
-            # Past the unpadded footprint's edge the limit is ESCAPE_SLACK below the floor
-            # itself: the floor is c0 there. (Reset only once the clearance had fallen
-            # ESCAPE_TOL below the floor, a robot past the edge by less than that stood
-            # with a limit above its own clearance: 166 of 166 samples "would lose
-            # clearance", wedged for good beside a table on willow-full, replayed from a
-            # move_base debug dump.)
-            floor = c0 + ESCAPE_TOL - ESCAPE_SLACK
-            if escape_limit(floor, self.footprint.padding) > c0 - ESCAPE_SLACK + 1e-9:
-                floor = c0
+        # Escape mode's clearance floor only rises while the robot stays in it, so the
+        # slack cannot be spent again each cycle to creep into the wall (ClearancePolicy).
+        floor = self.policy.escape_floor(c0, self._escape_floor) if escape else None
         self._escape_floor = floor if escape else None
 
         # In escape mode the robot may also back up slowly: nose-in against a wall (or
@@ -853,7 +879,7 @@ class DWAPlanner:
         next_clear = self._footprint_clearance(dist_obs, costmap, nx[:, 0], ny[:, 0], nth[:, 0])
         min_clear = np.minimum(np.where(checked, clearance, np.inf).min(axis=1), next_clear)
         if escape:
-            lowest = escape_limit(floor, self.footprint.padding)
+            lowest = self.policy.escape(floor)
             loses = min_clear < lowest
             # Moving out forward (or turning on the spot; backing up has its own rules
             # below) needs room only to stop: the next cycle plans again from where this
@@ -881,13 +907,13 @@ class DWAPlanner:
             n_short = np.minimum(n_check, n_brake)
             short = steps < n_short[:, None]
             min_short = np.minimum(np.where(short, clearance, np.inf).min(axis=1), next_clear)
-            keeps_short = min_short >= max(lowest, min(c0, ESCAPE_SLACK))
+            keeps_short = min_short >= self.policy.creep(floor, c0)
             passes = driving & (speed <= v_now + EPS) & (min_short >= lowest)
             crept = ((slow & keeps_short) | passes) & (samples[:, 0] >= 0.0) & loses
             # The last resort (below): backing up slowly where it regains clearance by the
             # time the robot could stop, and loses none on the way.
             creeps_back = slow & (samples[:, 0] < 0.0) & loses & keeps_short \
-                & (clearance[rows, np.clip(n_short - 1, 0, n_steps - 1)] >= c0 + ESCAPE_SLACK) \
+                & (clearance[rows, np.clip(n_short - 1, 0, n_steps - 1)] >= self.policy.creep_back(c0)) \
                 & ~((centre == LETHAL_OBSTACLE) & short).any(axis=1)
             loses &= ~crept
             checked = np.where(crept[:, None], short, checked)
@@ -898,13 +924,13 @@ class DWAPlanner:
             # plan behind a robot in a narrow spot: no turn fits, forward leads away);
             # never drive away backwards.
             along = _along_plan(togo, dist_path, costmap, pose, x[:, n_score - 1], y[:, n_score - 1])
-            collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN) | along) | \
+            collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= self.policy.back_out(c0)) | along) | \
                 loses | ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1)
             occ = centre[:, n_score - 1].astype(np.float64)
             occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
             occ -= 100.0 * np.minimum(clearance[:, n_score - 1], 0.0)  # prefer regaining clearance
         else:
-            collides = (min_clear < 0.0) | \
+            collides = (min_clear < self.policy.normal) | \
                 ((centre >= INSCRIBED_INFLATED_OBSTACLE) & inside & centre_checked).any(axis=1)
             # Heading for the goal, the robot stops at the closest approach: cells the
             # arc would cross after it do not count.
@@ -1027,7 +1053,7 @@ class DWAPlanner:
         ths = pose[2] + vth * cfg.sim_time * np.arange(1, n + 1) / n
         clear = self._footprint_clearance(dist, costmap, np.full(n, pose[0]), np.full(n, pose[1]), ths)
         c0 = self._footprint_clearance(dist, costmap, np.array(pose[0]), np.array(pose[1]), np.array(pose[2]))
-        return bool(clear.min() >= min(0.0, float(c0)) - ESCAPE_SLACK)
+        return bool(clear.min() >= self.policy.rotation(float(c0)))
 
     def _stop_and_rotate(self, pose, velocity, costmap):
         cfg = self.config
