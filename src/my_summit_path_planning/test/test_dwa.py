@@ -695,6 +695,23 @@ def test_planner_and_costmap_pickle_for_an_offline_replay(footprint):
     assert a.ok and b.ok and a.cmd == b.cmd
 
 
+def test_a_planner_dumped_by_an_older_version_still_plans(footprint):
+    """A debug dump from before DWAPlanner.policy (the ClearancePolicy), with state since
+    dropped (_debug, rotating_to_goal), unpickles into a planner that plans as a new one."""
+    import pickle
+    m = local_costmap(footprint, [(-3.5, 0.30, 3.5, 0.45)])     # inscribed: escape mode
+    planner = DWAPlanner(DWAConfig(**CFG), footprint)
+    planner.set_plan(np.column_stack([np.linspace(0.0, 3.0, 61), np.full(61, -0.6)]), 0.0)
+    old = pickle.loads(pickle.dumps(planner))
+    del old.__dict__["policy"]
+    old._debug, old.rotating_to_goal = {}, True
+    replayed = pickle.loads(pickle.dumps(old))
+    assert replayed.policy == planner.policy and not hasattr(replayed, "rotating_to_goal")
+    a = planner.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
+    b = replayed.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
+    assert a.ok and a.mode == "escape" and (b.cmd, b.mode) == (a.cmd, a.mode)
+
+
 def test_replay_script_reads_a_dump_and_draws_it(footprint, tmp_path):
     """scripts/replay_dwa_dump.py on a dump of a robot boxed in by walls: it finds what the
     planner found live (escape mode, creeping forward) and draws the picture."""
