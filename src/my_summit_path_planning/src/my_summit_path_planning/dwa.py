@@ -1,88 +1,69 @@
 """DWA local planner: the Dynamic Window Approach over a rolling local costmap.
 
 Reference: Fox, Burgard & Thrun 1997, "The Dynamic Window Approach to Collision
-Avoidance"; ROS 1 ``dwa_local_planner`` (dwa_planner.cpp) with ``base_local_planner``'s
-SimpleTrajectoryGenerator, cost functions (MapGrid, Obstacle, Oscillation, Twirling)
-and LatchedStopRotateController; wiki.ros.org/dwa_local_planner for the parameters.
-Structure after PythonRobotics' dynamic_window_approach.py, in the order it runs:
+Avoidance" (IEEE Robotics & Automation Magazine 4(1)); ROS 1 ``dwa_local_planner``
+(DWAPlanner with base_local_planner's SimpleTrajectoryGenerator, MapGridCostFunction,
+ObstacleCostFunction, OscillationCostFunction, TwirlingCostFunction and
+LatchedStopRotateController); wiki.ros.org/dwa_local_planner for the parameters.
 
-1. ``dynamic_window``: velocities reachable within sim_period = 1/controller_frequency
-   under the acceleration limits, clipped to the velocity limits.
-2. ``sample_velocities``: vx_samples x vy_samples x vth_samples evenly over the window
-   (0 added when a range spans it, as base_local_planner's VelocityIterator), minus
-   samples that are too fast (max_vel_trans) or too slow (below min_vel_trans *and*
-   min_vel_theta).
-3. ``simulate``: every sample held constant over sim_time (plus stop_time_buffer for
-   the collision check), Euler steps of at most sim_granularity [m] /
-   angular_sim_granularity [rad]; all samples x steps in one numpy pass.
-4. ``score``: costs as dwa_local_planner weighs them (distances in metres):
-   0.5 * path_distance_bias * (path distance of the end point + of the forward point)
-   + 0.5 * goal_distance_bias * (goal distance of the end point + of the forward point)
-   + occdist_scale * (max costmap cost along the trajectory)
-   + twirling_scale * |vth|; a trajectory whose footprint meets a lethal or unknown
-   cell before it could brake to a stop (Fox et al.'s admissible velocities: braking
-   distance + stop_time_buffer, not the whole sim_time), whose centre enters an
-   inscribed cell, that leaves the costmap, that the oscillation flags forbid, or that
-   is too fast to stop at the final goal is rejected; the "no valid trajectory" reason
-   counts the samples each of these rejected.
-5. ``best``: the cheapest valid sample; oscillation flags updated.
+Every control period (DWAPlanner.compute_velocity) the planner searches the velocities
+the robot can reach within one period for the one whose trajectory, held constant, best
+follows the global plan without hitting anything. The pipeline, in the order it runs,
+one function each, vectorized over all samples x steps:
 
-Heading for the final goal, a trajectory that gets to it (its closest approach lies
-within xy_goal_tolerance) is scored at its closest approach (it stops there):
-forward-point terms fade out at the goal, cells past the stop do not count, and all
-approaches within GOAL_DEAD_ZONE x xy_goal_tolerance count as arriving, the earliest
-winning (else DWA creeps up to the goal at ever lower speed). Every other trajectory is
-scored at its end, as in plain DWA.
+1. ``dynamic_window``: the velocities reachable within sim_period = 1/controller_frequency
+   [s] under acc_lim_x/y [m/s^2] and acc_lim_theta [rad/s^2], clipped to the limits.
+2. ``sample_velocities``: vx_samples x vy_samples x vth_samples evenly over the window (0
+   added when a range spans it, as base_local_planner's VelocityIterator), minus those
+   faster than max_vel_trans [m/s] or slower than both min_vel_trans [m/s] and
+   min_vel_theta [rad/s]; from rest, turns on the spot at min_vel_theta are added when
+   the window does not reach it. In escape mode (``sampling_config``) slow reversing
+   down to -ESCAPE_VEL_X is sampled too.
+3. ``rollouts``: each sample held over sim_time [s] (scored) + stop_time_buffer [s]
+   (checked), Euler steps of at most sim_granularity [m] / angular_sim_granularity
+   [rad]: poses, the costmap cell under the centre and the footprint clearance of each.
+4. Admissibility (Fox et al.'s admissible velocities): ``goal_approach`` picks the step
+   each sample is scored at (heading for the final goal, a trajectory that gets within
+   xy_goal_tolerance [m] is scored at its closest approach, where it would stop; all
+   others at the end of sim_time) and flags samples too fast to stop at the goal;
+   ``check_horizon`` gives the steps each must stay clear over (the whole horizon, or to
+   its stop at the goal plus braking time, stop_time_buffer and the control latency).
+   ``ordinary_admissibility`` rejects a sample whose footprint clearance drops below the
+   ClearancePolicy's limit, whose centre meets an inscribed cell, that leaves the
+   costmap, or that the oscillation flags forbid (a reversal of rotation, strafe or
+   direction until the robot has moved oscillation_reset_dist [m] or turned
+   oscillation_reset_angle [rad]). ``escape_admissibility`` applies when the robot
+   starts inside its footprint_padding or on an inscribed cell, or when no ordinary
+   sample is admissible: the ClearancePolicy's escape limits, slow moves judged only up
+   to where they could stop, reversing only where it regains clearance.
+5. ``scores``: dwa_local_planner's cost, distances in metres:
+   0.5 path_distance_bias (distance to the plan of the scored point + of the point
+   forward_point_distance [m] ahead of it) + 0.5 goal_distance_bias (distance to the
+   local goal along the plan, of both points) + occdist_scale (highest costmap cost
+   under the centre, ``obstacle_costs``) + twirling_scale |vth|.
+6. ``choose``: the cheapest admissible sample; the oscillation flags are updated.
+7. ``no_valid_reason``: with none admissible, how many samples each constraint rejected
+   and where the nearest obstacle lies; move_base then stops the robot.
 
-Goal handling (LatchedStopRotateController): within xy_goal_tolerance (latched with
+Footprint clearance (``footprint_clearance``, [m], negative inside the padded
+footprint): the footprint is covered by circles (Footprint.covering_circles); a pose's
+clearance is the least distance from a circle to a lethal or unknown cell centre
+(bilinear lookup in the distance field) less its radius and half a cell, refined near
+obstacles by the footprint's finer grid circles and its corners. ``ClearancePolicy`` says
+how low that clearance may go: 0 normally, and the escape, creep, reversing, recovery
+and goal-rotation limits, from the clearance now and footprint_padding [m].
+
+Goal handling (LatchedStopRotateController): within xy_goal_tolerance [m] (latched with
 latch_xy_goal_tolerance) the robot brakes within its acceleration limits while it
-starts turning (separate limits), rotates in place to the goal heading on the
-time-optimal profile (rotation_speed), then reports the goal reached once stopped.
+starts turning, turns on the spot to the goal heading on the time-optimal profile
+(``rotation_speed``) until within yaw_goal_tolerance [rad], and reports the goal reached
+once stopped (trans_stopped_vel [m/s], theta_stopped_vel [rad/s]). The goal approach
+is planned with APPROACH_DECEL x acc_lim_x; move_base's measured control latency
+(set_control_latency, [s]) lengthens braking and the checked horizon.
 
-Footprint check, vectorized: the footprint is covered by a few circles
-(Footprint.covering_circles); a pose is free when no lethal/unknown cell centre lies
-within a circle's radius + half a cell (one distance-field lookup per circle). Those
-axis circles are as wide as the robot and stick out ~0.25 m past its front and back,
-so near obstacles a finer grid of small circles (Footprint.grid_circles) decides
-(footprint_clearance): without it a robot 0.6 m from a table leg can neither turn
-nor creep forward, though its real corners clear the leg. The axis circles pass
-exactly through the footprint's corners, where half a cell of margin is short of a
-cell's square by up to 1 cm (its corner, diagonally): near the limit, a pose with a
-footprint corner inside a blocked cell is a collision whatever the circles say.
-
-Failure modes handled on purpose:
-- Start inside the inscribed zone (real DWA rejects every trajectory and the robot
-  never moves): the current pose's clearance c0 < 0 switches to escape mode, where
-  trajectories are valid if their clearance never drops below min(c0, 0) by more than
-  ESCAPE_TOL (the clearance along a wall of laser-marked cells wobbles by millimetres)
-  nor past the unpadded footprint's edge (footprint_padding is the margin),
-  and slow reversing (down to -ESCAPE_VEL_X) is sampled too, where it regains clearance
-  or goes back along the plan: a robot stopped nose-in or parallel against a wall has no
-  forward motion that does not cut into its clearance, and a robot in a narrow gap whose
-  plan now lies behind it has no room to turn round. A slow forward or turning command
-  (up to ESCAPE_VEL_X) needs to keep the clearance only until the robot could stop
-  (Fox et al.'s admissibility), and may not lose any there: wedged in a doorway, every
-  arc lost clearance somewhere over the whole horizon, but a few centimetres of creeping
-  let the robot turn. A robot already driving when it slips into its padding is judged
-  the same way at up to its present speed, down to the escape limit: passing an obstacle
-  at speed, every arc dips a little deeper before it opens up.
-- Late control loop (a loaded machine, a simulator faster than real time): move_base
-  measures the interval between control cycles (set_control_latency) and braking, the
-  goal approach and the collision horizon plan for it instead of one nominal period.
-- Spinning / oscillating in place: base_local_planner's oscillation flags (a reversal
-  of rotation, strafe or direction is forbidden until the robot has moved
-  oscillation_reset_dist or turned oscillation_reset_angle).
-- Wiggling at the goal: the xy latch, stopping first, and a rotation speed bounded by
-  sqrt(2 * acc_lim_theta * |yaw error|) so the turn cannot overshoot.
-- Goal near as the crow flies, plan behind the robot (a dead end to turn round in):
-  only trajectories that get to the goal are scored at their closest approach; scored
-  there, every trajectory of a robot facing away from its plan was scored at its start,
-  all alike (see _dwa_step).
-- Ghost obstacles: handled in the obstacle layer (layers.scan_to_observation).
-- Stuck facing an obstacle (issue 5's table stall): from rest the window holds no
-  in-place turn (acc_lim_theta x sim_period < min_vel_theta), so turns at
-  min_vel_theta are sampled; the footprint check is refined near obstacles so that
-  the axis circles' 0.25 m overhang does not forbid turning or creeping forward.
+Parameters (DWAConfig, the DWAPlannerROS namespace, Noetic names and defaults) carry
+their units there; scaling_speed, max_scaling_factor and use_dwa are accepted and not
+used (this planner always samples the dynamic window).
 """
 import collections
 import dataclasses
@@ -101,13 +82,11 @@ NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_po
 PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
 MAX_LATENCY = 1.0          # [s] cap on the control latency braking plans for
 ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the goal sooner
-ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated by an in-place rotation out of the inscribed zone
+ESCAPE_SLACK = 1e-3        # [m] clearance a move may lose where it may lose none (see ClearancePolicy)
 # [m] clearance loss tolerated in escape mode: the clearance measured along a motion
 # parallel to a wall of laser-marked cells (ragged by a cell here and there, laser noise
-# 1 cm) wobbles by a few millimetres, so with 1 mm every motion of a robot pressed
-# against a wall "lost clearance" and it stood there until move_base aborted (the
-# multi-robot crossing). A fifth of a cell: the marked cells reach 0-5 cm past the
-# surface that was hit, and the clearance keeps half a cell of margin besides.
+# 1 cm) wobbles by a few millimetres. A fifth of a cell: the marked cells reach 0-5 cm
+# past the surface that was hit, and the clearance keeps half a cell of margin besides.
 ESCAPE_TOL = 0.01
 ESCAPE_VEL_X = 0.2         # [m/s] backing-up speed allowed in escape mode even when min_vel_x >= 0
 NO_OBSTACLE_DIST = 1.0e6   # [m] distance field value when the costmap has no blocked cell
