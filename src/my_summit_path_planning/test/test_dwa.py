@@ -163,6 +163,9 @@ def test_goal_latch_and_rotate(footprint):
 
 
 def test_escape_from_inscribed_zone(footprint):
+    """Started on an inscribed cell (0.30 m from a wall, within the 0.31 m half-width),
+    real dwa_local_planner rejects every trajectory and the robot never moves; escape
+    mode moves it."""
     walls = [(-3.5, 0.30, 3.5, 0.45)]    # wall cells from 0.30 m left of the centre: inscribed
     m = local_costmap(footprint, walls)
     assert m.cost_at(0.0, 0.0) == cv.INSCRIBED_INFLATED_OBSTACLE
@@ -171,6 +174,28 @@ def test_escape_from_inscribed_zone(footprint):
     planner.set_plan(plan, 0.0)
     r = planner.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
     assert r.ok and r.mode == "escape" and r.cmd != (0.0, 0.0, 0.0)
+
+
+def test_backs_up_a_plan_behind_it_where_no_turn_fits(footprint):
+    """Escape mode backs up along the plan where reversing regains no clearance: in a
+    gap barely wider than the robot with its plan behind it there is no room to turn, and
+    driving on leads away (the multi-robot crossing, test_pressed_against_a_ragged_wall_
+    drives_on: reversing was allowed only where it regained clearance). Hand-built: a
+    0.63 m corridor, the plan 3 m back down it; the robot backs down it, its clearance
+    never dropping, where otherwise it crept forward, away from the plan."""
+    m = local_costmap(footprint, [(-3.5, 0.30, 3.5, 0.45), (-3.5, -0.45, 3.5, -0.33)])
+    planner = DWAPlanner(DWAConfig(**CFG), footprint)
+    planner.set_plan(np.column_stack([np.linspace(0.0, -3.0, 61), np.zeros(61)]), math.pi)
+    clear = clearance_of(planner, m)
+    pose, vel = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    c0 = clear(pose)
+    for _ in range(40):                         # 2 s
+        r = planner.compute_velocity(pose, vel, m)
+        assert r.ok and r.mode == "escape" and r.cmd[0] < 0.0, (r.cmd, r.reason)
+        vel = r.cmd
+        pose = advance(pose, vel)
+        assert clear(pose) >= c0 - 1e-6
+    assert pose[0] < -0.3, pose
 
 
 def test_oscillation_flags():
@@ -695,6 +720,23 @@ def test_planner_and_costmap_pickle_for_an_offline_replay(footprint):
     assert a.ok and b.ok and a.cmd == b.cmd
 
 
+def test_a_planner_dumped_by_an_older_version_still_plans(footprint):
+    """A debug dump from before DWAPlanner.policy (the ClearancePolicy), with state since
+    dropped (_debug, rotating_to_goal), unpickles into a planner that plans as a new one."""
+    import pickle
+    m = local_costmap(footprint, [(-3.5, 0.30, 3.5, 0.45)])     # inscribed: escape mode
+    planner = DWAPlanner(DWAConfig(**CFG), footprint)
+    planner.set_plan(np.column_stack([np.linspace(0.0, 3.0, 61), np.full(61, -0.6)]), 0.0)
+    old = pickle.loads(pickle.dumps(planner))
+    del old.__dict__["policy"]
+    old._debug, old.rotating_to_goal = {}, True
+    replayed = pickle.loads(pickle.dumps(old))
+    assert replayed.policy == planner.policy and not hasattr(replayed, "rotating_to_goal")
+    a = planner.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
+    b = replayed.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
+    assert a.ok and a.mode == "escape" and (b.cmd, b.mode) == (a.cmd, a.mode)
+
+
 def test_replay_script_reads_a_dump_and_draws_it(footprint, tmp_path):
     """scripts/replay_dwa_dump.py on a dump of a robot boxed in by walls: it finds what the
     planner found live (escape mode, creeping forward) and draws the picture."""
@@ -754,7 +796,12 @@ def test_escape_mode_moves_a_robot_whose_clearance_is_below_the_floor(footprint)
     sample, starting below the limit, "would lose clearance" (166 of 166), recoveries
     could not move it either, and exploration ended "the robot is stuck" (56% of the
     building). Now the floor starts over from the robot's clearance: it turns away from
-    the table and drives on along the plan, losing at most ESCAPE_SLACK on the way."""
+    the table and drives on along the plan, losing at most ESCAPE_SLACK on the way. The
+    floor starts over with no slack to spend (ClearancePolicy.escape_floor): the
+    trajectories are simulated at constant velocity while the robot ramps up to it, so
+    its own motion can fall a few millimetres short of what was checked, and with a
+    fresh ESCAPE_TOL after each such reset it crept ever deeper (2.4 cm in a replay of a
+    willow-full wedge)."""
     from my_summit_path_planning.costmap import Footprint
     from my_summit_path_planning.dwa import ESCAPE_SLACK
     from my_summit_path_planning.navfn import resample_path
@@ -876,6 +923,37 @@ def test_turn_around_recovery_drives_out_of_a_dead_end_pocket(footprint):
     assert sum(results) >= 190, sum(results)
     assert lowest >= manoeuvre_limit(c0, padded.padding, 0.005) - 2e-3
     assert pose[1] < y0 - 0.8, pose            # down the plan, out of the pocket
+
+
+def test_creeps_back_out_of_a_pocket_no_backward_arc_clears(footprint):
+    """Field failure (willow-full exploration, seed 0, 1047 s, the same dump as above): in
+    a dead-end pocket with its plan behind it, a wall along the robot's left side, another
+    a hand's width behind its tail and a table leg ahead, no arc backwards stayed clear
+    over the whole horizon, though a few centimetres back and to the right let it turn:
+    "of 166 samples 166 collide" for 260 s, and explore ended "the robot is stuck". Now,
+    boxed in, escape mode admits a slow reversing move that regains clearance by the time
+    the robot could stop (ClearancePolicy.creep_back) and touches nothing on the way: DWA
+    creeps back, a cycle at a time (the way out of this pocket is turn_around's, above)."""
+    from my_summit_path_planning.costmap import Footprint
+    from my_summit_path_planning.navfn import resample_path
+    padded = Footprint.from_params(footprint.polygon.tolist(), padding=0.02)   # explore.launch's
+    res = 0.05
+    m = recorded_costmap(padded, TABLE_POCKET_CELLS)
+    x0, y0 = -3.5 + (70 + 0.452) * res, -3.5 + (70 + 0.552) * res
+    pose = (x0, y0, 2.538)
+    plan = resample_path(np.array([(0.0, 0.0), (0.09, -0.17), (0.08, -0.37), (0.07, -0.57), (0.06, -0.77),
+                                   (0.05, -0.97), (0.11, -1.16), (0.18, -1.35), (0.28, -1.52), (0.4, -1.68)])
+                         + (x0, y0), 0.025)
+    cfg = DWAConfig(**dict(CFG, max_vel_x=0.6, max_vel_trans=0.6, max_vel_theta=1.0, goal_distance_bias=20.0,
+                           xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06))
+    planner = DWAPlanner(cfg, padded)
+    planner.set_plan(plan, 1.744)
+    clear = clearance_of(planner, m)
+    c0 = clear(pose)
+    r = planner.compute_velocity(pose, (0.0, 0.0, 0.0), m)
+    assert r.ok and r.mode == "escape", r.reason
+    assert r.cmd[0] < 0.0 and r.n_valid <= 10          # creeping back, the last resort
+    assert clear(advance(pose, r.cmd)) >= c0            # regaining clearance
 
 
 # The lethal cells (dx, dy) round the robot's cell in a move_base debug dump (willow-full

@@ -10,7 +10,7 @@ import yaml
 
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, Footprint, LayeredCostmap
-from my_summit_path_planning.dwa import escape_limit, recovery_limit
+from my_summit_path_planning.dwa import ClearancePolicy
 from my_summit_path_planning.layers import scan_to_observation
 from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
 from my_summit_path_planning.nav_core import PluginContext
@@ -128,13 +128,17 @@ def test_recoveries_move_a_robot_left_inside_its_padding(footprint):
     as the escape limit (never past the unpadded body's edge). Held to clearance >= 0,
     back_up stopped at once and the robot was stuck (willow-full exploration)."""
     padded = Footprint.from_params(SUMMIT_FOOTPRINT, padding=0.02)
-    assert escape_limit(0.0, 0.02) == pytest.approx(-0.01)      # ESCAPE_TOL below the floor
-    assert escape_limit(-0.015, 0.02) == pytest.approx(-0.02)   # not past the unpadded edge
-    assert escape_limit(-0.03, 0.02) == pytest.approx(-0.031)   # already past it: ESCAPE_SLACK
-    assert escape_limit(-0.005, 0.0) == pytest.approx(-0.015)   # no padding: no margin kept
-    assert recovery_limit(0.03, 0.02) == 0.0 and recovery_limit(0.0, 0.0) == pytest.approx(-0.001)
-    assert recovery_limit(-0.015, 0.02) == pytest.approx(-0.02)
-    assert recovery_limit(-0.005, 0.0) == pytest.approx(-0.006)
+    pad2, pad0 = ClearancePolicy(0.02), ClearancePolicy(0.0)
+    assert pad2.escape(0.0) == pytest.approx(-0.01)       # ESCAPE_TOL below the floor
+    assert pad2.escape(-0.015) == pytest.approx(-0.02)    # not past the unpadded edge
+    assert pad2.escape(-0.03) == pytest.approx(-0.031)    # already past it: ESCAPE_SLACK
+    assert pad0.escape(-0.005) == pytest.approx(-0.015)   # no padding: no margin kept
+    assert pad2.recovery(0.03) == 0.0 and pad0.recovery(0.0) == pytest.approx(-0.001)
+    assert pad2.recovery(-0.015) == pytest.approx(-0.02)
+    assert pad0.recovery(-0.005) == pytest.approx(-0.006)
+    assert pad2.escape_floor(-0.01, -0.005) == -0.005       # the floor only rises while escaping
+    assert pad2.escape_floor(-0.025, -0.0207) == -0.025     # below its limit: starts over at c0
+    assert pad2.escape(pad2.escape_floor(-0.025, -0.0207)) == pytest.approx(-0.026)
     wall = Costmap2D(100, 100, 0.05, -2.5, -2.5)
     wall.data[57, :] = cv.LETHAL_OBSTACLE                 # cells y in [0.35, 0.40)
     pose = (0.0, 0.025, 0.0)                              # left side at 0.335: 1.5 cm from the wall

@@ -1,88 +1,69 @@
 """DWA local planner: the Dynamic Window Approach over a rolling local costmap.
 
 Reference: Fox, Burgard & Thrun 1997, "The Dynamic Window Approach to Collision
-Avoidance"; ROS 1 ``dwa_local_planner`` (dwa_planner.cpp) with ``base_local_planner``'s
-SimpleTrajectoryGenerator, cost functions (MapGrid, Obstacle, Oscillation, Twirling)
-and LatchedStopRotateController; wiki.ros.org/dwa_local_planner for the parameters.
-Structure after PythonRobotics' dynamic_window_approach.py, in the order it runs:
+Avoidance" (IEEE Robotics & Automation Magazine 4(1)); ROS 1 ``dwa_local_planner``
+(DWAPlanner with base_local_planner's SimpleTrajectoryGenerator, MapGridCostFunction,
+ObstacleCostFunction, OscillationCostFunction, TwirlingCostFunction and
+LatchedStopRotateController); wiki.ros.org/dwa_local_planner for the parameters.
 
-1. ``dynamic_window``: velocities reachable within sim_period = 1/controller_frequency
-   under the acceleration limits, clipped to the velocity limits.
-2. ``sample_velocities``: vx_samples x vy_samples x vth_samples evenly over the window
-   (0 added when a range spans it, as base_local_planner's VelocityIterator), minus
-   samples that are too fast (max_vel_trans) or too slow (below min_vel_trans *and*
-   min_vel_theta).
-3. ``simulate``: every sample held constant over sim_time (plus stop_time_buffer for
-   the collision check), Euler steps of at most sim_granularity [m] /
-   angular_sim_granularity [rad]; all samples x steps in one numpy pass.
-4. ``score``: costs as dwa_local_planner weighs them (distances in metres):
-   0.5 * path_distance_bias * (path distance of the end point + of the forward point)
-   + 0.5 * goal_distance_bias * (goal distance of the end point + of the forward point)
-   + occdist_scale * (max costmap cost along the trajectory)
-   + twirling_scale * |vth|; a trajectory whose footprint meets a lethal or unknown
-   cell before it could brake to a stop (Fox et al.'s admissible velocities: braking
-   distance + stop_time_buffer, not the whole sim_time), whose centre enters an
-   inscribed cell, that leaves the costmap, that the oscillation flags forbid, or that
-   is too fast to stop at the final goal is rejected; the "no valid trajectory" reason
-   counts the samples each of these rejected.
-5. ``best``: the cheapest valid sample; oscillation flags updated.
+Every control period (DWAPlanner.compute_velocity) the planner searches the velocities
+the robot can reach within one period for the one whose trajectory, held constant, best
+follows the global plan without hitting anything. The pipeline, in the order it runs,
+one function each, vectorized over all samples x steps:
 
-Heading for the final goal, a trajectory that gets to it (its closest approach lies
-within xy_goal_tolerance) is scored at its closest approach (it stops there):
-forward-point terms fade out at the goal, cells past the stop do not count, and all
-approaches within GOAL_DEAD_ZONE x xy_goal_tolerance count as arriving, the earliest
-winning (else DWA creeps up to the goal at ever lower speed). Every other trajectory is
-scored at its end, as in plain DWA.
+1. ``dynamic_window``: the velocities reachable within sim_period = 1/controller_frequency
+   [s] under acc_lim_x/y [m/s^2] and acc_lim_theta [rad/s^2], clipped to the limits.
+2. ``sample_velocities``: vx_samples x vy_samples x vth_samples evenly over the window (0
+   added when a range spans it, as base_local_planner's VelocityIterator), minus those
+   faster than max_vel_trans [m/s] or slower than both min_vel_trans [m/s] and
+   min_vel_theta [rad/s]; from rest, turns on the spot at min_vel_theta are added when
+   the window does not reach it. In escape mode (``sampling_config``) slow reversing
+   down to -ESCAPE_VEL_X is sampled too.
+3. ``rollouts``: each sample held over sim_time [s] (scored) + stop_time_buffer [s]
+   (checked), Euler steps of at most sim_granularity [m] / angular_sim_granularity
+   [rad]: poses, the costmap cell under the centre and the footprint clearance of each.
+4. Admissibility (Fox et al.'s admissible velocities): ``goal_approach`` picks the step
+   each sample is scored at (heading for the final goal, a trajectory that gets within
+   xy_goal_tolerance [m] is scored at its closest approach, where it would stop; all
+   others at the end of sim_time) and flags samples too fast to stop at the goal;
+   ``check_horizon`` gives the steps each must stay clear over (the whole horizon, or to
+   its stop at the goal plus braking time, stop_time_buffer and the control latency).
+   ``ordinary_admissibility`` rejects a sample whose footprint clearance drops below the
+   ClearancePolicy's limit, whose centre meets an inscribed cell, that leaves the
+   costmap, or that the oscillation flags forbid (a reversal of rotation, strafe or
+   direction until the robot has moved oscillation_reset_dist [m] or turned
+   oscillation_reset_angle [rad]). ``escape_admissibility`` applies when the robot
+   starts inside its footprint_padding or on an inscribed cell, or when no ordinary
+   sample is admissible: the ClearancePolicy's escape limits, slow moves judged only up
+   to where they could stop, reversing only where it regains clearance.
+5. ``scores``: dwa_local_planner's cost, distances in metres:
+   0.5 path_distance_bias (distance to the plan of the scored point + of the point
+   forward_point_distance [m] ahead of it) + 0.5 goal_distance_bias (distance to the
+   local goal along the plan, of both points) + occdist_scale (highest costmap cost
+   under the centre, ``obstacle_costs``) + twirling_scale |vth|.
+6. ``choose``: the cheapest admissible sample; the oscillation flags are updated.
+7. ``no_valid_reason``: with none admissible, how many samples each constraint rejected
+   and where the nearest obstacle lies; move_base then stops the robot.
 
-Goal handling (LatchedStopRotateController): within xy_goal_tolerance (latched with
+Footprint clearance (``footprint_clearance``, [m], negative inside the padded
+footprint): the footprint is covered by circles (Footprint.covering_circles); a pose's
+clearance is the least distance from a circle to a lethal or unknown cell centre
+(bilinear lookup in the distance field) less its radius and half a cell, refined near
+obstacles by the footprint's finer grid circles and its corners. ``ClearancePolicy`` says
+how low that clearance may go: 0 normally, and the escape, creep, reversing, recovery
+and goal-rotation limits, from the clearance now and footprint_padding [m].
+
+Goal handling (LatchedStopRotateController): within xy_goal_tolerance [m] (latched with
 latch_xy_goal_tolerance) the robot brakes within its acceleration limits while it
-starts turning (separate limits), rotates in place to the goal heading on the
-time-optimal profile (rotation_speed), then reports the goal reached once stopped.
+starts turning, turns on the spot to the goal heading on the time-optimal profile
+(``rotation_speed``) until within yaw_goal_tolerance [rad], and reports the goal reached
+once stopped (trans_stopped_vel [m/s], theta_stopped_vel [rad/s]). The goal approach
+is planned with APPROACH_DECEL x acc_lim_x; move_base's measured control latency
+(set_control_latency, [s]) lengthens braking and the checked horizon.
 
-Footprint check, vectorized: the footprint is covered by a few circles
-(Footprint.covering_circles); a pose is free when no lethal/unknown cell centre lies
-within a circle's radius + half a cell (one distance-field lookup per circle). Those
-axis circles are as wide as the robot and stick out ~0.25 m past its front and back,
-so near obstacles a finer grid of small circles (Footprint.grid_circles) decides
-(footprint_clearance): without it a robot 0.6 m from a table leg can neither turn
-nor creep forward, though its real corners clear the leg. The axis circles pass
-exactly through the footprint's corners, where half a cell of margin is short of a
-cell's square by up to 1 cm (its corner, diagonally): near the limit, a pose with a
-footprint corner inside a blocked cell is a collision whatever the circles say.
-
-Failure modes handled on purpose:
-- Start inside the inscribed zone (real DWA rejects every trajectory and the robot
-  never moves): the current pose's clearance c0 < 0 switches to escape mode, where
-  trajectories are valid if their clearance never drops below min(c0, 0) by more than
-  ESCAPE_TOL (the clearance along a wall of laser-marked cells wobbles by millimetres)
-  nor past the unpadded footprint's edge (escape_limit: footprint_padding is the margin),
-  and slow reversing (down to -ESCAPE_VEL_X) is sampled too, where it regains clearance
-  or goes back along the plan: a robot stopped nose-in or parallel against a wall has no
-  forward motion that does not cut into its clearance, and a robot in a narrow gap whose
-  plan now lies behind it has no room to turn round. A slow forward or turning command
-  (up to ESCAPE_VEL_X) needs to keep the clearance only until the robot could stop
-  (Fox et al.'s admissibility), and may not lose any there: wedged in a doorway, every
-  arc lost clearance somewhere over the whole horizon, but a few centimetres of creeping
-  let the robot turn. A robot already driving when it slips into its padding is judged
-  the same way at up to its present speed, down to the escape limit: passing an obstacle
-  at speed, every arc dips a little deeper before it opens up.
-- Late control loop (a loaded machine, a simulator faster than real time): move_base
-  measures the interval between control cycles (set_control_latency) and braking, the
-  goal approach and the collision horizon plan for it instead of one nominal period.
-- Spinning / oscillating in place: base_local_planner's oscillation flags (a reversal
-  of rotation, strafe or direction is forbidden until the robot has moved
-  oscillation_reset_dist or turned oscillation_reset_angle).
-- Wiggling at the goal: the xy latch, stopping first, and a rotation speed bounded by
-  sqrt(2 * acc_lim_theta * |yaw error|) so the turn cannot overshoot.
-- Goal near as the crow flies, plan behind the robot (a dead end to turn round in):
-  only trajectories that get to the goal are scored at their closest approach; scored
-  there, every trajectory of a robot facing away from its plan was scored at its start,
-  all alike (see _dwa_step).
-- Ghost obstacles: handled in the obstacle layer (layers.scan_to_observation).
-- Stuck facing an obstacle (issue 5's table stall): from rest the window holds no
-  in-place turn (acc_lim_theta x sim_period < min_vel_theta), so turns at
-  min_vel_theta are sampled; the footprint check is refined near obstacles so that
-  the axis circles' 0.25 m overhang does not forbid turning or creeping forward.
+Parameters (DWAConfig, the DWAPlannerROS namespace, Noetic names and defaults) carry
+their units there; scaling_speed, max_scaling_factor and use_dwa are accepted and not
+used (this planner always samples the dynamic window).
 """
 import collections
 import dataclasses
@@ -101,13 +82,11 @@ NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_po
 PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
 MAX_LATENCY = 1.0          # [s] cap on the control latency braking plans for
 ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the goal sooner
-ESCAPE_SLACK = 1e-3        # [m] clearance loss tolerated by an in-place rotation out of the inscribed zone
+ESCAPE_SLACK = 1e-3        # [m] clearance a move may lose where it may lose none (see ClearancePolicy)
 # [m] clearance loss tolerated in escape mode: the clearance measured along a motion
 # parallel to a wall of laser-marked cells (ragged by a cell here and there, laser noise
-# 1 cm) wobbles by a few millimetres, so with 1 mm every motion of a robot pressed
-# against a wall "lost clearance" and it stood there until move_base aborted (the
-# multi-robot crossing). A fifth of a cell: the marked cells reach 0-5 cm past the
-# surface that was hit, and the clearance keeps half a cell of margin besides.
+# 1 cm) wobbles by a few millimetres. A fifth of a cell: the marked cells reach 0-5 cm
+# past the surface that was hit, and the clearance keeps half a cell of margin besides.
 ESCAPE_TOL = 0.01
 ESCAPE_VEL_X = 0.2         # [m/s] backing-up speed allowed in escape mode even when min_vel_x >= 0
 NO_OBSTACLE_DIST = 1.0e6   # [m] distance field value when the costmap has no blocked cell
@@ -251,7 +230,13 @@ def sample_velocities(cfg, window, holonomic):
     return g
 
 
-# -- 3. forward simulation ------------------------------------------------------------
+def sampling_config(cfg, escape):
+    """The config the window and samples are drawn with: in escape mode slow reversing
+    (down to -ESCAPE_VEL_X) is sampled too, even when min_vel_x >= 0."""
+    return dataclasses.replace(cfg, min_vel_x=min(cfg.min_vel_x, -ESCAPE_VEL_X)) if escape else cfg
+
+
+# -- 3. rollouts ----------------------------------------------------------------------
 def simulation_steps(cfg, samples, horizon):
     """Number of Euler steps so that no sample moves more than the granularities per step."""
     if len(samples) == 0:
@@ -279,6 +264,224 @@ def simulate(pose, samples, dt, n_steps):
     return x, y, th_before + w * dt
 
 
+@dataclass
+class Rollouts:
+    """The samples held constant over sim_time + stop_time_buffer, (N, T) arrays over
+    samples x steps of dt [s] (the first n_score steps span sim_time): poses x, y [m],
+    th [rad]; their cells mx, my, inside (on the costmap) and centre (the cost under the
+    robot's centre, NO_INFORMATION off the map); clearance [m] (footprint_clearance);
+    next_clear (N,) [m]: the clearance where the next control cycle starts (latency on)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    th: np.ndarray
+    dt: float
+    n_score: int
+    mx: np.ndarray
+    my: np.ndarray
+    inside: np.ndarray
+    centre: np.ndarray
+    clearance: np.ndarray
+    next_clear: np.ndarray
+
+    @property
+    def n_steps(self):
+        return self.x.shape[1]
+
+
+def rollouts(cfg, pose, samples, costmap, clearance, latency):
+    """Rollouts of samples (N, 3) from pose; clearance(x, y, th) -> [m] of poses;
+    latency [s]: how long this cycle's command stays in force."""
+    horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
+    n_steps = simulation_steps(cfg, samples, horizon)
+    dt = horizon / n_steps
+    n_score = max(1, min(n_steps, int(round(cfg.sim_time / dt))))
+    x, y, th = simulate(pose, samples, dt, n_steps)
+    h, w = costmap.data.shape
+    mx = np.floor((x - costmap.origin_x) / costmap.resolution).astype(np.int64)
+    my = np.floor((y - costmap.origin_y) / costmap.resolution).astype(np.int64)
+    inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
+    centre = np.where(inside, costmap.data[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)], NO_INFORMATION)
+    nx, ny, nth = simulate(pose, samples, latency, 1)
+    return Rollouts(x, y, th, dt, n_score, mx, my, inside, centre, clearance(x, y, th),
+                    clearance(nx[:, 0], ny[:, 0], nth[:, 0]))
+
+
+# -- 4. admissibility -----------------------------------------------------------------
+@dataclass
+class Scene:
+    """What a cycle plans in: the local costmap; dist_obs (H, W) [m]: distance to the
+    nearest blocked cell (NO_OBSTACLE_DIST without one); dist_path, togo (H, W) [m]:
+    path_distance_maps of the local plan; local (M, 2): the local plan; plan: the global
+    plan; final: the local plan ends at the goal."""
+
+    costmap: object
+    dist_obs: np.ndarray
+    dist_path: np.ndarray
+    togo: np.ndarray
+    local: np.ndarray
+    plan: np.ndarray
+    final: bool
+
+    @property
+    def goal(self):
+        return self.plan[-1]
+
+    def cells(self, x, y):
+        """Costmap cells (clipped to the map) of points x, y [m]."""
+        h, w = self.togo.shape
+        res, cm = self.costmap.resolution, self.costmap
+        mx = np.floor((x - cm.origin_x) / res).astype(np.int64)
+        my = np.floor((y - cm.origin_y) / res).astype(np.int64)
+        return my.clip(0, h - 1), mx.clip(0, w - 1)
+
+
+def goal_approach(cfg, samples, ro, scene, dist_goal, v_now, latency):
+    """(k, too_fast): the step each sample is scored at (N,) and the samples too fast to
+    stop at the final goal (N,) bool.
+
+    Off the final goal every sample is scored at the end of sim_time. Heading for it, a
+    sample that gets within xy_goal_tolerance is scored at its closest approach (it would
+    stop there), measured along the plan (plan length left + distance to it: a plan that
+    winds round a wall first leads away from a goal near as the crow flies), the nearer
+    in a straight line on ties; the others drive on and are scored at their end. A sample
+    faster than the robot can stop from at APPROACH_DECEL x acc_lim_x before the goal
+    (half the tolerance short, one latency of travel held back) is too fast.
+    """
+    rows = np.arange(len(samples))
+    n_score = ro.n_score
+    if not scene.final:
+        return np.full(len(samples), n_score - 1), np.zeros(len(samples), dtype=bool)
+    h, w = scene.togo.shape
+    goal = scene.goal
+    sx, sy = ro.mx[:, :n_score], ro.my[:, :n_score]
+    dg = np.where(ro.inside[:, :n_score], scene.togo[sy.clip(0, h - 1), sx.clip(0, w - 1)]
+                  + scene.dist_path[sy.clip(0, h - 1), sx.clip(0, w - 1)], np.inf)
+    dg = dg + 1e-3 * np.hypot(ro.x[:, :n_score] - goal[0], ro.y[:, :n_score] - goal[1])
+    k = np.argmin(dg, axis=1)
+    arrives = np.hypot(ro.x[rows, k] - goal[0], ro.y[rows, k] - goal[1]) <= cfg.xy_goal_tolerance
+    k = np.where(arrives, k, n_score - 1)
+    room = dist_goal - 0.5 * cfg.xy_goal_tolerance - v_now * latency
+    v_stop = math.sqrt(2.0 * APPROACH_DECEL * cfg.acc_lim_x * max(0.0, room))
+    too_fast = np.hypot(samples[:, 0], samples[:, 1]) > max(v_stop, cfg.min_vel_trans) + EPS
+    return k, too_fast
+
+
+def check_horizon(cfg, samples, ro, k, final, latency):
+    """(n_check, n_brake) (N,): the steps a sample's footprint must stay clear over, and
+    those until it could stop (braking at the acceleration limits, plus stop_time_buffer
+    and one latency). The whole horizon (sim_time + stop_time_buffer) as in
+    dwa_local_planner; heading for the final goal, up to the scored step k plus n_brake."""
+    t_brake = np.maximum(np.hypot(samples[:, 0], samples[:, 1]) / (2.0 * max(cfg.acc_lim_x, EPS)),
+                         np.abs(samples[:, 2]) / (2.0 * max(cfg.acc_lim_theta, EPS)))
+    n_brake = np.ceil((t_brake + max(0.0, cfg.stop_time_buffer) + latency) / ro.dt).astype(np.int64)
+    if final:
+        n_check = np.clip(k + 1 + n_brake, 1, ro.n_steps)
+    else:
+        n_check = np.full(len(samples), ro.n_steps)
+    return n_check, n_brake
+
+
+@dataclass
+class Verdict:
+    """Which samples (N,) bool are admissible (valid) and which constraint rejected the
+    others (a sample may fail several)."""
+
+    valid: np.ndarray
+    collides: np.ndarray
+    leaves: np.ndarray
+    oscillates: np.ndarray
+    too_fast: np.ndarray
+
+
+def _lowest(clearance, until, next_clear):
+    """(N,) the lowest clearance over the steps below until (N,) and at next_clear."""
+    steps = np.arange(clearance.shape[1])[None, :]
+    return np.minimum(np.where(steps < until[:, None], clearance, np.inf).min(axis=1), next_clear)
+
+
+def _end_on_map(ro, k, costmap):
+    """(N,) bool: the scored pose's cell lies on the costmap."""
+    rows = np.arange(len(k))
+    h, w = costmap.data.shape
+    emx = np.floor((ro.x[rows, k] - costmap.origin_x) / costmap.resolution).astype(np.int64)
+    emy = np.floor((ro.y[rows, k] - costmap.origin_y) / costmap.resolution).astype(np.int64)
+    return (emx >= 0) & (emy >= 0) & (emx < w) & (emy < h)
+
+
+def ordinary_admissibility(policy, ro, k, n_check, oscillates, too_fast, costmap):
+    """dwa_local_planner's rule: the footprint keeps policy.normal clearance and the
+    centre stays off inscribed cells over n_check steps, and on the costmap."""
+    checked = np.arange(ro.n_steps)[None, :] < n_check[:, None]
+    collides = (_lowest(ro.clearance, n_check, ro.next_clear) < policy.normal) | \
+        ((ro.centre >= INSCRIBED_INFLATED_OBSTACLE) & ro.inside & checked).any(axis=1)
+    leaves = (~ro.inside & checked).any(axis=1) | ~_end_on_map(ro, k, costmap)
+    return Verdict(~(collides | leaves | oscillates | too_fast), collides, leaves, oscillates, too_fast)
+
+
+def escape_admissibility(policy, floor, c0, v_now, samples, ro, k, n_check, n_brake, oscillates, too_fast,
+                         scene, pose):
+    """Escape mode's rule, from clearance c0 [m] with the clearance floor [m]; v_now
+    [m/s]: the robot's speed when it is inside its padding (c0 < 0), else 0.
+
+    A sample may not reach below policy.escape(floor) over n_check steps, nor touch a
+    lethal cell with its centre. Moving forward or turning, it needs that only until it
+    could stop (n_brake steps, Fox et al.'s admissible velocities) when it is slow (up to
+    ESCAPE_VEL_X) and keeps policy.creep there, or, for a robot already driving faster,
+    when it is no faster than now. Reversing must regain policy.back_out(c0) by the end
+    of sim_time or end nearer the goal along the plan. Boxed in (nothing admissible),
+    reversing that loses nothing is admitted, and failing that a slow reversing move
+    that regains policy.creep_back(c0) by the time it could stop.
+    """
+    vx = samples[:, 0]
+    rows = np.arange(len(samples))
+    steps = np.arange(ro.n_steps)[None, :]
+    lowest = policy.escape(floor)
+    loses = _lowest(ro.clearance, n_check, ro.next_clear) < lowest
+    speed = np.hypot(samples[:, 0], samples[:, 1])
+    slow = speed <= ESCAPE_VEL_X + EPS
+    driving = v_now > ESCAPE_VEL_X
+    n_short = np.minimum(n_check, n_brake)
+    short = steps < n_short[:, None]
+    min_short = _lowest(ro.clearance, n_short, ro.next_clear)
+    keeps_short = min_short >= policy.creep(floor, c0)
+    passes = driving & (speed <= v_now + EPS) & (min_short >= lowest)
+    crept = ((slow & keeps_short) | passes) & (vx >= 0.0) & loses
+    creeps_back = slow & (vx < 0.0) & loses & keeps_short \
+        & (ro.clearance[rows, np.clip(n_short - 1, 0, ro.n_steps - 1)] >= policy.creep_back(c0)) \
+        & ~((ro.centre == LETHAL_OBSTACLE) & short).any(axis=1)
+    loses &= ~crept
+    checked = np.where(crept[:, None], short, steps < n_check[:, None])
+    hits = ((ro.centre == LETHAL_OBSTACLE) & checked).any(axis=1)
+    leaves = (~ro.inside & checked).any(axis=1) | ~_end_on_map(ro, k, scene.costmap)
+    n = ro.n_score - 1
+    along = _along_plan(scene.togo, scene.dist_path, scene.costmap, pose, ro.x[:, n], ro.y[:, n])
+    collides = ~((vx >= 0.0) | (ro.clearance[:, n] >= policy.back_out(c0)) | along) | loses | hits
+    valid = ~(collides | leaves | oscillates | too_fast)
+    if not valid.any():
+        backing = (vx < 0.0) & ~(loses | hits) & ~(leaves | oscillates | too_fast)
+        if not backing.any():
+            backing = creeps_back & ~(leaves | oscillates | too_fast)
+        if backing.any():
+            valid = backing
+            collides = collides & ~backing
+    return Verdict(valid, collides, leaves, oscillates, too_fast)
+
+
+def _along_plan(togo, dist_path, costmap, pose, ex, ey, gain=ALONG_PLAN_GAIN):
+    """(N,) bool: end points (ex, ey) [m] at least gain [m] nearer the goal along the
+    plan (plan length left + distance to the plan) than the pose."""
+    h, w = togo.shape
+    res = costmap.resolution
+
+    def along(px, py):
+        mx = np.clip(np.floor((px - costmap.origin_x) / res).astype(np.int64), 0, w - 1)
+        my = np.clip(np.floor((py - costmap.origin_y) / res).astype(np.int64), 0, h - 1)
+        return togo[my, mx] + dist_path[my, mx]
+    return along(np.asarray(ex), np.asarray(ey)) < along(np.array(pose[0]), np.array(pose[1])) - gain
+
+
+# -- 5. scores ------------------------------------------------------------------------
 def path_distance_maps(local, costmap):
     """Two (H, W) fields [m] over the costmap for a local plan (N, 2) [m]:
     distance to the nearest plan cell, and plan length left to the plan's end from that
@@ -327,22 +530,289 @@ def _end_direction(local, plan, back=0.3):
     return v / n if n > 0 else np.zeros(2)
 
 
-def rotation_speed(err, vth, acc, max_vel, min_vel, tolerance, dt):
-    """Signed in-place turn rate [rad/s] toward a heading err [rad] away (time-optimal).
+def obstacle_costs(ro, k, final, escape):
+    """(N,) the obstacle term: the highest costmap cost under the centre over sim_time
+    (heading for the goal, up to the closest approach k: cells past the stop do not
+    count). In escape mode the cost at the end of sim_time (inscribed at most) plus 100
+    per metre of clearance short of 0 there, so that regaining clearance wins."""
+    n = ro.n_score
+    if escape:
+        occ = ro.centre[:, n - 1].astype(np.float64)
+        occ[ro.centre[:, n - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
+        occ -= 100.0 * np.minimum(ro.clearance[:, n - 1], 0.0)
+        return occ
+    steps = np.arange(ro.n_steps)[None, :]
+    scored = steps[:, :n] <= (k[:, None] if final else n)
+    return np.where(ro.inside[:, :n] & scored, ro.centre[:, :n], 0).max(axis=1).astype(np.float64)
 
-    base_local_planner's rotateToGoal turns at min(max_vel_theta, |err|) rad/s (a
-    proportional law: the last radian takes seconds) capped by sqrt(2 acc |err|); here
-    the cap alone, i.e. the bang-bang profile: accelerate at acc [rad/s^2] up to max_vel
-    [rad/s], then brake at acc so as to stop half a tolerance short of the heading. The
-    velocity command is held for one period dt [s] while the base ramps toward it, so
-    the braking curve is evaluated at the heading error left after that period; never
-    slower than min_vel [rad/s] outside the tolerance (the base would not move).
+
+def scores(cfg, samples, ro, k, occ, scene, dist_goal):
+    """(N,) dwa_local_planner's cost of each sample scored at step k, distances in metres:
+    0.5 path_distance_bias (path distance of the scored point + of the forward point)
+    + 0.5 goal_distance_bias (goal distance of both) + occdist_scale occ
+    + twirling_scale |vth|.
+
+    Goal distance as MapGrid measures it, along the plan (plan length left from the
+    nearest plan cell + the distance to it), so turning in place is no progress. The
+    forward point (forward_point_distance ahead of the scored pose) is measured from the
+    local goal shifted that far on along the plan's last direction (goal_front_costs).
+    Heading for the final goal: path and goal distances within GOAL_DEAD_ZONE x
+    xy_goal_tolerance count as 0, the forward-point terms fade out within
+    NEAR_GOAL_FACTOR x forward_point_distance of the goal (a trajectory that gets there
+    stops), and the earlier arrival wins (ARRIVAL_TIME_WEIGHT)."""
+    rows = np.arange(len(samples))
+    final, goal = scene.final, scene.goal
+    ex, ey, eth = ro.x[rows, k], ro.y[rows, k], ro.th[rows, k]
+    fx = ex + cfg.forward_point_distance * np.cos(eth)
+    fy = ey + cfg.forward_point_distance * np.sin(eth)
+    end, fwd = scene.cells(ex, ey), scene.cells(fx, fy)
+    path_end = scene.dist_path[end]
+    path_fwd = scene.dist_path[fwd]
+    goal_end = scene.togo[end] + path_end
+    if final:
+        dead = GOAL_DEAD_ZONE * cfg.xy_goal_tolerance
+        path_end = np.maximum(path_end - dead, 0.0)
+        goal_end = np.maximum(goal_end - dead, 0.0)
+    front_goal = scene.local[-1] + cfg.forward_point_distance * _end_direction(scene.local, scene.plan)
+    goal_fwd = np.hypot(fx - front_goal[0], fy - front_goal[1])
+    fwd_w = 0.0 if dist_goal <= NEAR_GOAL_FACTOR * cfg.forward_point_distance else 1.0
+    if final and cfg.forward_point_distance > 0:
+        fwd_w = fwd_w * np.clip(np.hypot(ex - goal[0], ey - goal[1])
+                                / (NEAR_GOAL_FACTOR * cfg.forward_point_distance), 0.0, 1.0)
+    cost = (0.5 * cfg.path_distance_bias * (path_end + fwd_w * path_fwd)
+            + 0.5 * cfg.goal_distance_bias * (goal_end + fwd_w * goal_fwd)
+            + cfg.occdist_scale * occ
+            + cfg.twirling_scale * np.abs(samples[:, 2]))
+    if final:
+        cost += ARRIVAL_TIME_WEIGHT * cfg.goal_distance_bias * (k + 1) * ro.dt
+    return cost
+
+
+# -- 6. choice ------------------------------------------------------------------------
+def choose(cost, samples, verdict, final):
+    """(best, n_valid): the index of the cheapest admissible sample (None when there is
+    none) and how many were admissible. Heading for the final goal with every safe sample
+    too fast to stop there (it came into view late, odometry jumped), the slowest safe
+    ones count as admissible: the robot brakes as hard as the window allows."""
+    valid = verdict.valid
+    n_valid = int(valid.sum())
+    if n_valid == 0 and final and verdict.too_fast.any():
+        safe = ~(verdict.collides | verdict.leaves | verdict.oscillates)
+        if safe.any():
+            speed = np.hypot(samples[:, 0], samples[:, 1])
+            valid = safe & (speed <= speed[safe].min() + EPS)
+            n_valid = int(valid.sum())
+    if n_valid == 0:
+        return None, 0
+    return int(np.argmin(np.where(valid, cost, np.inf))), n_valid
+
+
+# -- 7. the reason when nothing is admissible -----------------------------------------
+def no_valid_reason(verdict, escape_why, dist_obs, costmap, pose):
+    """'no valid trajectory: of N samples n collide, ...': how many samples each
+    constraint rejected; escape_why: why escape mode was on (None: it was not); and where
+    the nearest blocked cell lies."""
+    v = verdict
+    counts = [f"{int(v.collides.sum())} collide" + (f" (escape mode, {escape_why}: would lose clearance)"
+                                                      if escape_why is not None else ""),
+              f"{int(v.leaves.sum())} leave the local costmap", f"{int(v.oscillates.sum())} would "
+              "oscillate (reverse a motion just made)", f"{int(v.too_fast.sum())} too fast to stop at the goal"]
+    counts = [c for c, m in zip(counts, (v.collides, v.leaves, v.oscillates, v.too_fast)) if m.any()]
+    return (f"no valid trajectory: of {len(v.valid)} samples " + ", ".join(counts)
+            + _nearest_blocked(dist_obs, costmap, pose))
+
+
+# -- footprint clearance -------------------------------------------------------------
+def obstacle_distance(costmap):
+    """Distance [m] from each cell to the nearest lethal or unknown cell centre (OpenCV's
+    exact Euclidean distance transform); None when the costmap has no such cell."""
+    data = costmap.data
+    blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
+    if not blocked.any():
+        return None
+    return cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
+                                 cv2.DIST_MASK_PRECISE) * costmap.resolution
+
+
+def footprint_checks(footprint):
+    """(covers, corners) for footprint_clearance: the footprint's axis circles and grid
+    circles, and its polygon's corners (None for a round robot, which has none)."""
+    covers = (footprint.covering_circles(), footprint.grid_circles())
+    return covers, (None if footprint.is_circle else footprint.polygon)
+
+
+def footprint_clearance(dist_m, costmap, x, y, th, covers, corners=None):
+    """Clearance [m] (negative: collision) of footprint poses from blocked cells.
+
+    dist_m: (H, W) distance [m] of each cell centre to the nearest blocked (lethal or
+    unknown) cell centre; x, y, th: poses (any shape, same) in the costmap frame;
+    covers: ((centres (K, 2) [m], radius [m]), ...) circle sets that each cover the
+    footprint. A cover proves a pose free when every circle's centre is farther than
+    radius + a margin (half a cell for the first cover, FINE_MARGIN_CELLS for the
+    others) from any blocked cell, so the clearance of a pose is the best
+    of its covers' (min over circles of distance - radius - half a cell). The first
+    cover is evaluated everywhere; each next one only where the clearance so far is
+    below FINE_CHECK_BELOW (near obstacles: few poses). The distance field is
+    interpolated bilinearly: a nearest-cell lookup would be off by up to half a cell
+    diagonal and jump as the robot crosses cells.
+    corners (K, 2) [m] (optional, robot frame): the footprint's corners, where the first
+    cover's circles touch the outline and half a cell of margin falls short of a blocked
+    cell's square by up to CORNER_SLACK_CELLS: a pose whose clearance is below that and
+    that has a corner inside a blocked cell gets minus the corner's depth in it.
     """
-    e = abs(err)
-    w = abs(vth) if vth * err > 0 else 0.0          # current speed toward the heading
-    left = max(0.0, e - 0.5 * tolerance - w * dt)   # what is left after this period
-    v = min(max_vel, math.sqrt(2.0 * acc * left), w + acc * dt)
-    return math.copysign(max(min_vel, v), err)
+    shape = np.shape(x)
+    x = np.asarray(x, dtype=np.float64).ravel()
+    y = np.asarray(y, dtype=np.float64).ravel()
+    th = np.asarray(th, dtype=np.float64).ravel()
+    field = np.asarray(dist_m, dtype=np.float32)
+    (centres, radius), rest = covers[0], covers[1:]
+    clear = _cover_clearance(field, costmap, x, y, th, centres, radius, 0.5 * costmap.resolution)
+    for centres, radius in rest:
+        near = np.flatnonzero(clear < FINE_CHECK_BELOW)
+        if near.size == 0:
+            break
+        # The small circles pass through their cells' corners, right on the footprint's
+        # outline: a whole cell of margin (a blocked cell's square reaches half a diagonal
+        # past its centre, and the bilinear distance runs high next to a point obstacle).
+        fine = _cover_clearance(field, costmap, x[near], y[near], th[near], centres, radius,
+                                FINE_MARGIN_CELLS * costmap.resolution)
+        clear[near] = np.maximum(clear[near], fine)
+    if corners is not None:
+        near = np.flatnonzero(clear < CORNER_SLACK_CELLS * costmap.resolution)
+        if near.size:
+            clear[near] = np.minimum(clear[near], _corner_clearance(
+                field, costmap, x[near], y[near], th[near], np.asarray(corners, dtype=np.float64)))
+    return clear.reshape(shape)
+
+
+def _lay_out(values, n, rows, cols):
+    flat = np.zeros(rows * cols)
+    flat[:n] = np.asarray(values, dtype=np.float64).ravel()
+    return flat.reshape(rows, cols)
+
+
+def _cover_clearance(field, costmap, x, y, th, centres, radius, margin):
+    """min over the circles of (interpolated distance at the circle centre - radius - margin [m])."""
+    res = costmap.resolution
+    n = x.size
+    # cv2.remap wants 2-D maps under 32767 a side: lay the poses out in rows of REMAP_COLS.
+    rows = max(1, -(-n // REMAP_COLS))
+    cols = min(n, REMAP_COLS) if n else 1
+    x, y, th = _lay_out(x, n, rows, cols), _lay_out(y, n, rows, cols), _lay_out(th, n, rows, cols)
+    clear = np.full(x.shape, np.inf, dtype=np.float32)
+    c, s = np.cos(th), np.sin(th)
+    for cx, cy in centres:
+        # Continuous cell-centre coordinates; cv2.remap interpolates bilinearly (in C)
+        # and answers OUTSIDE_DIST off the grid.
+        fx = ((x + cx * c - cy * s - costmap.origin_x) / res - 0.5).astype(np.float32)
+        fy = ((y + cx * s + cy * c - costmap.origin_y) / res - 0.5).astype(np.float32)
+        d = cv2.remap(field, fx, fy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                      borderValue=OUTSIDE_DIST)
+        np.minimum(clear, d, out=clear)
+    return clear.astype(np.float64).ravel()[:n] - (radius + margin)
+
+
+def _corner_clearance(field, costmap, x, y, th, corners):
+    """(N,) minus how deep [m] the deepest footprint corner lies inside a blocked cell
+    (field <= 0), inf where no corner is in one; poses x, y, th (N,), corners (K, 2) [m]
+    in the robot frame."""
+    res = costmap.resolution
+    h, w = field.shape
+    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
+    fx = (x[:, None] + corners[:, 0] * c - corners[:, 1] * s - costmap.origin_x) / res  # (N, K) [cells]
+    fy = (y[:, None] + corners[:, 0] * s + corners[:, 1] * c - costmap.origin_y) / res
+    mx, my = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+    inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
+    blocked = inside & (field[my.clip(0, h - 1), mx.clip(0, w - 1)] <= 0.0)
+    depth = res * (0.5 - np.maximum(np.abs(fx - mx - 0.5), np.abs(fy - my - 0.5)))  # to the cell's nearest side
+    return np.where(blocked, -depth, np.inf).min(axis=1)
+
+
+def _nearest_blocked(dist_m, costmap, pose):
+    """'; nearest obstacle cell 0.52 m away, 170 deg from the heading' (for a failure reason)."""
+    res = costmap.resolution
+    h, w = costmap.data.shape
+    r = int(math.ceil(1.0 / res))
+    cell = costmap.world_to_map(pose[0], pose[1])
+    if cell is None:
+        return ""
+    x0, y0 = max(0, cell[0] - r), max(0, cell[1] - r)
+    sub = costmap.data[y0:min(h, cell[1] + r + 1), x0:min(w, cell[0] + r + 1)]
+    ys, xs = np.nonzero((sub == LETHAL_OBSTACLE) | (sub == NO_INFORMATION))
+    if len(xs) == 0:
+        return "; no obstacle cell within 1 m"
+    wx = costmap.origin_x + (xs + x0 + 0.5) * res - pose[0]
+    wy = costmap.origin_y + (ys + y0 + 0.5) * res - pose[1]
+    k = int(np.argmin(np.hypot(wx, wy)))
+    bearing = math.degrees(wrap_angle(math.atan2(wy[k], wx[k]) - pose[2]))
+    return f"; nearest obstacle cell {math.hypot(wx[k], wy[k]):.2f} m away, {bearing:.0f} deg from the heading"
+
+
+# -- clearance policy ----------------------------------------------------------------
+@dataclass(frozen=True)
+class ClearancePolicy:
+    """How low a motion's footprint clearance [m] (footprint_clearance: negative once the
+    padded footprint overlaps a blocked cell) may go, from the robot's clearance c0 [m]
+    now and the footprint_padding [m]: every limit DWA and the recoveries check against.
+
+    - ``normal``: 0, the padded footprint never reaches a blocked cell (DWA with c0 >= 0
+      off the inscribed zone; plain dwa_local_planner).
+    - ``escape(floor)``: escape mode (c0 < 0, or no ordinary trajectory): ESCAPE_TOL
+      below the clearance floor, for the millimetres the measured clearance along a wall
+      of laser-marked cells wobbles by, but with a padding never past the unpadded
+      footprint's edge (-padding), and once past it only ESCAPE_SLACK below the floor.
+      With no padding there is no margin to keep.
+    - ``escape_floor(c0, previous)``: the floor escape mode keeps, min(c0, 0), that only
+      rises while the robot escapes; when the clearance falls below what it allows it
+      starts over from c0 with no slack left (ESCAPE_SLACK below c0).
+    - ``creep(floor, c0)``: a slow forward or turning move judged only up to where it
+      could stop: the escape limit, but no lower than c0 and never within ESCAPE_SLACK
+      of touching.
+    - ``creep_back(c0)``: the clearance a slow reversing move must be back at by the time
+      it could stop (ESCAPE_SLACK more than now); ``back_out(c0)``: at the end of the
+      scored horizon (ESCAPE_GAIN more), unless it goes back along the plan.
+    - ``recovery(c0)``: a recovery's motion (rotate_recovery, back_up): 0, or from inside
+      the padding ESCAPE_TOL lower but not past the unpadded edge, and never more than
+      ESCAPE_SLACK below c0.
+    - ``rotation(c0)``: the in-place turn to the goal heading: ESCAPE_SLACK below
+      min(c0, 0).
+    """
+
+    padding: float = 0.0     # [m] footprint_padding
+    normal = 0.0
+
+    def escape(self, floor):
+        if self.padding <= 0.0:
+            return floor - ESCAPE_TOL
+        return max(floor - ESCAPE_TOL, min(-self.padding, floor - ESCAPE_SLACK))
+
+    def escape_floor(self, c0, previous):
+        floor = min(c0, 0.0)
+        if previous is not None:
+            floor = max(floor, previous)
+        if self.escape(floor) > c0:
+            floor = c0 + ESCAPE_TOL - ESCAPE_SLACK
+            if self.escape(floor) > c0 - ESCAPE_SLACK + 1e-9:
+                floor = c0
+        return floor
+
+    def creep(self, floor, c0):
+        return max(self.escape(floor), min(c0, ESCAPE_SLACK))
+
+    @staticmethod
+    def creep_back(c0):
+        return c0 + ESCAPE_SLACK
+
+    @staticmethod
+    def back_out(c0):
+        return c0 + ESCAPE_GAIN
+
+    def recovery(self, c0):
+        return min(0.0, max(c0 - ESCAPE_TOL, -self.padding), c0 - ESCAPE_SLACK)
+
+    @staticmethod
+    def rotation(c0):
+        return min(0.0, c0) - ESCAPE_SLACK
 
 
 # -- oscillation ----------------------------------------------------------------------
@@ -412,166 +882,26 @@ class OscillationFlags:
                 self.reset()
 
 
-def _lay_out(values, n, rows, cols):
-    flat = np.zeros(rows * cols)
-    flat[:n] = np.asarray(values, dtype=np.float64).ravel()
-    return flat.reshape(rows, cols)
+# -- goal rotation --------------------------------------------------------------------
+def rotation_speed(err, vth, acc, max_vel, min_vel, tolerance, dt):
+    """Signed in-place turn rate [rad/s] toward a heading err [rad] away (time-optimal).
 
-
-def _cover_clearance(field, costmap, x, y, th, centres, radius, margin):
-    """min over the circles of (interpolated distance at the circle centre - radius - margin [m])."""
-    res = costmap.resolution
-    n = x.size
-    # cv2.remap wants 2-D maps under 32767 a side: lay the poses out in rows of REMAP_COLS.
-    rows = max(1, -(-n // REMAP_COLS))
-    cols = min(n, REMAP_COLS) if n else 1
-    x, y, th = _lay_out(x, n, rows, cols), _lay_out(y, n, rows, cols), _lay_out(th, n, rows, cols)
-    clear = np.full(x.shape, np.inf, dtype=np.float32)
-    c, s = np.cos(th), np.sin(th)
-    for cx, cy in centres:
-        # Continuous cell-centre coordinates; cv2.remap interpolates bilinearly (in C)
-        # and answers OUTSIDE_DIST off the grid.
-        fx = ((x + cx * c - cy * s - costmap.origin_x) / res - 0.5).astype(np.float32)
-        fy = ((y + cx * s + cy * c - costmap.origin_y) / res - 0.5).astype(np.float32)
-        d = cv2.remap(field, fx, fy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                      borderValue=OUTSIDE_DIST)
-        np.minimum(clear, d, out=clear)
-    return clear.astype(np.float64).ravel()[:n] - (radius + margin)
-
-
-def _along_plan(togo, dist_path, costmap, pose, ex, ey, gain=ALONG_PLAN_GAIN):
-    """(N,) bool: end points (ex, ey) [m] at least gain [m] nearer the goal along the
-    plan (plan length left + distance to the plan) than the pose."""
-    h, w = togo.shape
-    res = costmap.resolution
-
-    def along(px, py):
-        mx = np.clip(np.floor((px - costmap.origin_x) / res).astype(np.int64), 0, w - 1)
-        my = np.clip(np.floor((py - costmap.origin_y) / res).astype(np.int64), 0, h - 1)
-        return togo[my, mx] + dist_path[my, mx]
-    return along(np.asarray(ex), np.asarray(ey)) < along(np.array(pose[0]), np.array(pose[1])) - gain
-
-
-def _nearest_blocked(dist_m, costmap, pose):
-    """'; nearest obstacle cell 0.52 m away, 170 deg from the heading' (for a failure reason)."""
-    res = costmap.resolution
-    h, w = costmap.data.shape
-    r = int(math.ceil(1.0 / res))
-    cell = costmap.world_to_map(pose[0], pose[1])
-    if cell is None:
-        return ""
-    x0, y0 = max(0, cell[0] - r), max(0, cell[1] - r)
-    sub = costmap.data[y0:min(h, cell[1] + r + 1), x0:min(w, cell[0] + r + 1)]
-    ys, xs = np.nonzero((sub == LETHAL_OBSTACLE) | (sub == NO_INFORMATION))
-    if len(xs) == 0:
-        return "; no obstacle cell within 1 m"
-    wx = costmap.origin_x + (xs + x0 + 0.5) * res - pose[0]
-    wy = costmap.origin_y + (ys + y0 + 0.5) * res - pose[1]
-    k = int(np.argmin(np.hypot(wx, wy)))
-    bearing = math.degrees(wrap_angle(math.atan2(wy[k], wx[k]) - pose[2]))
-    return f"; nearest obstacle cell {math.hypot(wx[k], wy[k]):.2f} m away, {bearing:.0f} deg from the heading"
-
-
-def _corner_clearance(field, costmap, x, y, th, corners):
-    """(N,) minus how deep [m] the deepest footprint corner lies inside a blocked cell
-    (field <= 0), inf where no corner is in one; poses x, y, th (N,), corners (K, 2) [m]
-    in the robot frame."""
-    res = costmap.resolution
-    h, w = field.shape
-    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
-    fx = (x[:, None] + corners[:, 0] * c - corners[:, 1] * s - costmap.origin_x) / res  # (N, K) [cells]
-    fy = (y[:, None] + corners[:, 0] * s + corners[:, 1] * c - costmap.origin_y) / res
-    mx, my = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
-    inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
-    blocked = inside & (field[my.clip(0, h - 1), mx.clip(0, w - 1)] <= 0.0)
-    depth = res * (0.5 - np.maximum(np.abs(fx - mx - 0.5), np.abs(fy - my - 0.5)))  # to the cell's nearest side
-    return np.where(blocked, -depth, np.inf).min(axis=1)
-
-
-def obstacle_distance(costmap):
-    """Distance [m] from each cell to the nearest lethal or unknown cell centre (OpenCV's
-    exact Euclidean distance transform); None when the costmap has no such cell."""
-    data = costmap.data
-    blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
-    if not blocked.any():
-        return None
-    return cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
-                                 cv2.DIST_MASK_PRECISE) * costmap.resolution
-
-
-def escape_limit(floor, padding):
-    """The lowest clearance [m] escape mode lets a trajectory reach, from its clearance
-    floor [m] (at most 0): ESCAPE_TOL below it, for the millimetres the clearance along a
-    wall of laser-marked cells wobbles by, but with a footprint_padding > 0 [m] never past
-    the unpadded footprint's edge (-padding): the padding is the margin that keeps the
-    robot's acceleration ramp and command latency off the wall. A robot already past that
-    edge may lose only ESCAPE_SLACK. With no padding there is no margin to keep (the
-    robot may graze walls by up to ESCAPE_TOL)."""
-    if padding <= 0.0:
-        return floor - ESCAPE_TOL
-    return max(floor - ESCAPE_TOL, min(-padding, floor - ESCAPE_SLACK))
-
-
-def recovery_limit(c0, padding):
-    """The lowest clearance [m] a recovery's motion (rotate_recovery, back_up) may reach
-    from a pose of clearance c0 [m]: 0, or from inside footprint_padding [m] (c0 < 0)
-    ESCAPE_TOL lower but not past the unpadded footprint's edge, and never more than
-    ESCAPE_SLACK below c0 once past it."""
-    return min(0.0, max(c0 - ESCAPE_TOL, -padding), c0 - ESCAPE_SLACK)
-
-
-def footprint_checks(footprint):
-    """(covers, corners) for footprint_clearance: the footprint's axis circles and grid
-    circles, and its polygon's corners (None for a round robot, which has none)."""
-    covers = (footprint.covering_circles(), footprint.grid_circles())
-    return covers, (None if footprint.is_circle else footprint.polygon)
-
-
-def footprint_clearance(dist_m, costmap, x, y, th, covers, corners=None):
-    """Clearance [m] (negative: collision) of footprint poses from blocked cells.
-
-    dist_m: (H, W) distance [m] of each cell centre to the nearest blocked (lethal or
-    unknown) cell centre; x, y, th: poses (any shape, same) in the costmap frame;
-    covers: ((centres (K, 2) [m], radius [m]), ...) circle sets that each cover the
-    footprint. A cover proves a pose free when every circle's centre is farther than
-    radius + a margin (half a cell for the first cover, FINE_MARGIN_CELLS for the
-    others) from any blocked cell, so the clearance of a pose is the best
-    of its covers' (min over circles of distance - radius - half a cell). The first
-    cover is evaluated everywhere; each next one only where the clearance so far is
-    below FINE_CHECK_BELOW (near obstacles: few poses). The distance field is
-    interpolated bilinearly: a nearest-cell lookup would be off by up to half a cell
-    diagonal and jump as the robot crosses cells.
-    corners (K, 2) [m] (optional, robot frame): the footprint's corners, where the first
-    cover's circles touch the outline and half a cell of margin falls short of a blocked
-    cell's square by up to CORNER_SLACK_CELLS: a pose whose clearance is below that and
-    that has a corner inside a blocked cell gets minus the corner's depth in it.
+    base_local_planner's rotateToGoal turns at min(max_vel_theta, |err|) rad/s (a
+    proportional law: the last radian takes seconds) capped by sqrt(2 acc |err|); here
+    the cap alone, i.e. the bang-bang profile: accelerate at acc [rad/s^2] up to max_vel
+    [rad/s], then brake at acc so as to stop half a tolerance short of the heading. The
+    velocity command is held for one period dt [s] while the base ramps toward it, so
+    the braking curve is evaluated at the heading error left after that period; never
+    slower than min_vel [rad/s] outside the tolerance (the base would not move).
     """
-    shape = np.shape(x)
-    x = np.asarray(x, dtype=np.float64).ravel()
-    y = np.asarray(y, dtype=np.float64).ravel()
-    th = np.asarray(th, dtype=np.float64).ravel()
-    field = np.asarray(dist_m, dtype=np.float32)
-    (centres, radius), rest = covers[0], covers[1:]
-    clear = _cover_clearance(field, costmap, x, y, th, centres, radius, 0.5 * costmap.resolution)
-    for centres, radius in rest:
-        near = np.flatnonzero(clear < FINE_CHECK_BELOW)
-        if near.size == 0:
-            break
-        # The small circles pass through their cells' corners, right on the footprint's
-        # outline: a whole cell of margin (a blocked cell's square reaches half a diagonal
-        # past its centre, and the bilinear distance runs high next to a point obstacle).
-        fine = _cover_clearance(field, costmap, x[near], y[near], th[near], centres, radius,
-                                FINE_MARGIN_CELLS * costmap.resolution)
-        clear[near] = np.maximum(clear[near], fine)
-    if corners is not None:
-        near = np.flatnonzero(clear < CORNER_SLACK_CELLS * costmap.resolution)
-        if near.size:
-            clear[near] = np.minimum(clear[near], _corner_clearance(
-                field, costmap, x[near], y[near], th[near], np.asarray(corners, dtype=np.float64)))
-    return clear.reshape(shape)
+    e = abs(err)
+    w = abs(vth) if vth * err > 0 else 0.0          # current speed toward the heading
+    left = max(0.0, e - 0.5 * tolerance - w * dt)   # what is left after this period
+    v = min(max_vel, math.sqrt(2.0 * acc * left), w + acc * dt)
+    return math.copysign(max(min_vel, v), err)
 
 
-# -- the planner ----------------------------------------------------------------------
+# -- control latency ------------------------------------------------------------------
 class LatencyMeter:
     """Control-loop latency: the longest interval between control cycles over the last
     `window` cycles. On a loaded machine (or a simulator faster than real time) the loop
@@ -596,6 +926,7 @@ class LatencyMeter:
         return max(self.intervals) if self.intervals else None
 
 
+# -- the planner ----------------------------------------------------------------------
 class DWAPlanner:
     """The DWA local planner (nav_core's BaseLocalPlanner, without ROS).
 
@@ -613,18 +944,28 @@ class DWAPlanner:
             holonomic = config.holonomic_robot or (config.max_vel_y > 0 and config.vy_samples > 1)
         self.holonomic = bool(holonomic)
         self.covers, self.corners = footprint_checks(footprint)
+        self.policy = ClearancePolicy(footprint.padding)
         self.oscillation = OscillationFlags(config.oscillation_reset_dist, config.oscillation_reset_angle)
         self.plan = None
         self.goal_yaw = 0.0
         self.xy_latched = False
         self.goal_reached = False
-        self.rotating_to_goal = False
         self._closest = 0
         self._escape_floor = None  # [m] escape mode's clearance floor (None: not escaping)
         # [s] how long a command stays in force before the next one: one control period
         # nominally; move_base sets the measured interval (set_control_latency) when its
         # loop runs late on a loaded machine, so braking plans for the real delay.
         self.latency = config.sim_period
+
+    def __setstate__(self, state):
+        """Unpickling (move_base's ~debug_dump_dir, replay_dwa_dump.py), also a planner
+        pickled before the ClearancePolicy or with the state since dropped."""
+        state = dict(state)
+        for gone in ("_debug", "rotating_to_goal"):
+            state.pop(gone, None)
+        self.__dict__.update(state)
+        if "policy" not in state:
+            self.policy = ClearancePolicy(self.footprint.padding)
 
     def set_control_latency(self, seconds):
         """The measured time between control cycles [s] (never less than one period)."""
@@ -648,7 +989,6 @@ class DWAPlanner:
         if new_goal:
             self.xy_latched = False
             self.goal_reached = False
-            self.rotating_to_goal = False
         self.oscillation.reset()
 
     def is_goal_reached(self):
@@ -702,7 +1042,6 @@ class DWAPlanner:
             # Latched while passing the goal at speed, then braked beyond it: drive back
             # rather than turn on the spot and report a goal it is not at.
             self.xy_latched = False
-            self.rotating_to_goal = False
         if dist_goal <= cfg.xy_goal_tolerance or (cfg.latch_xy_goal_tolerance and self.xy_latched):
             if cfg.latch_xy_goal_tolerance:
                 self.xy_latched = True
@@ -716,300 +1055,66 @@ class DWAPlanner:
 
     compute_velocity_commands = compute_velocity   # nav_core's name (BaseLocalPlanner)
 
+    def _scene(self, local, costmap):
+        """The Scene of a cycle over the local plan local (M, 2)."""
+        dist_obs = obstacle_distance(costmap)
+        if dist_obs is None:
+            dist_obs = np.full(costmap.data.shape, NO_OBSTACLE_DIST, dtype=np.float32)
+        dist_path, togo = path_distance_maps(local, costmap)
+        if self.config.prune_plan:
+            final = len(local) == len(self.plan) - self._closest
+        else:
+            final = len(local) == len(self.plan)
+        return Scene(costmap, dist_obs, dist_path, togo, local, self.plan, final)
+
     def _dwa_step(self, pose, velocity, costmap, force_escape):
-        """Sample, simulate, score; escape mode when forced or when the robot needs it."""
+        """The pipeline, steps 1-7; escape mode when forced, or when the robot starts
+        inside its padding (clearance < 0) or on an inscribed or unknown cell."""
         cfg = self.config
-        goal = self.plan[-1]
-        dist_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
         local = self._local_plan(pose, costmap)
         if len(local) == 0:
             return DWAResult(ok=False, reason="the global plan does not reach into the local costmap")
-        res = costmap.resolution
-        data = costmap.data
-        h, w = data.shape
-        # Distance fields over the local costmap [m].
-        blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
-        dist_obs = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
-                                         cv2.DIST_MASK_PRECISE) * res if blocked.any() \
-            else np.full(data.shape, NO_OBSTACLE_DIST, dtype=np.float32)
-        dist_path, togo = path_distance_maps(local, costmap)
-        local_goal = local[-1]
+        scene = self._scene(local, costmap)
 
-        # Escape mode: the robot already overlaps an obstacle or sits in the inscribed zone.
-        c0 = float(self._footprint_clearance(dist_obs, costmap, np.array(pose[0]),
-                                             np.array(pose[1]), np.array(pose[2])))
+        def clearance(x, y, th):
+            return self._footprint_clearance(scene.dist_obs, costmap, x, y, th)
+        c0 = float(clearance(np.array(pose[0]), np.array(pose[1]), np.array(pose[2])))
         cc = costmap.cost_at(pose[0], pose[1])
         escape = force_escape or c0 < 0 or cc is None or cc >= INSCRIBED_INFLATED_OBSTACLE
-        # The clearance floor of escape mode only rises while the robot stays in it, so the
-        # slack cannot be spent again each cycle to creep into the wall.
-        floor = min(c0, 0.0)
-        if escape and self._escape_floor is not None:
-            floor = max(floor, self._escape_floor)
-        if escape and escape_limit(floor, self.footprint.padding) > c0:
-            # The clearance is below what the floor allows (new obstacle cells marked,
-            # odometry drift, the robot's own motion): every sample starts below the limit
-            # and none would be valid, a standstill recoveries cannot end (they keep the
-            # cells near the robot). Start over from here, with no slack to spend (a
-            # limit ESCAPE_SLACK below c0): the trajectories are simulated at constant
-            # velocity while the robot ramps up to it, so its own motion can fall a few
-            # millimetres short of what was checked, and a fresh ESCAPE_TOL after each such
-            # reset let it creep ever deeper (2.4 cm in a replay of a willow-full wedge).
-            # Past the unpadded footprint's edge the limit is ESCAPE_SLACK below the floor
-            # itself: the floor is c0 there. (Reset only once the clearance had fallen
-            # ESCAPE_TOL below the floor, a robot past the edge by less than that stood
-            # with a limit above its own clearance: 166 of 166 samples "would lose
-            # clearance", wedged for good beside a table on willow-full, replayed from a
-            # move_base debug dump.)
-            floor = c0 + ESCAPE_TOL - ESCAPE_SLACK
-            if escape_limit(floor, self.footprint.padding) > c0 - ESCAPE_SLACK + 1e-9:
-                floor = c0
-        self._escape_floor = floor if escape else None
+        floor = self.policy.escape_floor(c0, self._escape_floor) if escape else None
+        self._escape_floor = floor
+        mode = "escape" if escape else "dwa"
 
-        # In escape mode the robot may also back up slowly: nose-in against a wall (or
-        # parallel to it, where any turn swings the tail in) no forward motion regains
-        # clearance, and the real planner would sit there until recoveries clear it.
-        scfg = dataclasses.replace(cfg, min_vel_x=min(cfg.min_vel_x, -ESCAPE_VEL_X)) if escape else cfg
-        window = dynamic_window(scfg, velocity)
-        samples = sample_velocities(scfg, window, self.holonomic)
+        scfg = sampling_config(cfg, escape)                                   # 1, 2
+        samples = sample_velocities(scfg, dynamic_window(scfg, velocity), self.holonomic)
         if len(samples) == 0:
             return DWAResult(ok=False, reason="no velocity sample in the dynamic window")
-        horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
-        n_steps = simulation_steps(cfg, samples, horizon)
-        dt = horizon / n_steps
-        n_score = max(1, min(n_steps, int(round(cfg.sim_time / dt))))
-        x, y, th = simulate(pose, samples, dt, n_steps)
-
-        # Obstacle cost: centre cells along the scored part.
-        mx = np.floor((x - costmap.origin_x) / res).astype(np.int64)
-        my = np.floor((y - costmap.origin_y) / res).astype(np.int64)
-        inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
-        centre = np.where(inside, data[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)], NO_INFORMATION)
-        clearance = self._footprint_clearance(dist_obs, costmap, x, y, th)
-        steps = np.arange(n_steps)[None, :]
-
-        # When the local goal is the final goal, a trajectory is scored at its point of
-        # closest approach to the goal (it would stop there), and samples too fast to
-        # stop at the goal within acc_lim_x are rejected: the robot drives at speed
-        # until it must brake, instead of DWA's slow exponential approach.
-        final = len(local) == len(self.plan) - self._closest if cfg.prune_plan else \
-            len(local) == len(self.plan)
-        rows = np.arange(len(samples))
-        too_fast = np.zeros(len(samples), dtype=bool)
-        if final:
-            # Closest approach measured along the path (plan length left + distance to
-            # the plan), not straight: when the plan winds round a wall to a goal that is
-            # near as the crow flies, driving along it first moves away from the goal, and
-            # a straight measure would make every trajectory's best point its start (the
-            # robot would spin in place).
-            sx, sy = mx[:, :n_score], my[:, :n_score]
-            sin = inside[:, :n_score]
-            dg = np.where(sin, togo[sy.clip(0, h - 1), sx.clip(0, w - 1)]
-                          + dist_path[sy.clip(0, h - 1), sx.clip(0, w - 1)], np.inf)
-            dg = dg + 1e-3 * np.hypot(x[:, :n_score] - goal[0], y[:, :n_score] - goal[1])  # ties: nearer
-            k = np.argmin(dg, axis=1)
-            # Only a trajectory that gets to the goal stops at its closest approach; any
-            # other drives on and is scored at its end, as in plain DWA. Scored at their
-            # closest approach, all trajectories of a robot that has to turn round first
-            # (its plan leads away behind it) were scored at their start, so every sample
-            # got the same path and goal costs and DWA had nothing to choose by, and were
-            # checked for collisions only over their braking distance (below): in the
-            # multi-robot crossing robot_0, in a dead-end pocket between a wall and
-            # chairs with its plan behind it and the goal 2 m away beyond the chairs,
-            # crept nose first into the chairs and dithered there until move_base aborted.
-            arrives = np.hypot(x[rows, k] - goal[0], y[rows, k] - goal[1]) <= cfg.xy_goal_tolerance
-            k = np.where(arrives, k, n_score - 1)
-            ex, ey, eth = x[rows, k], y[rows, k], th[rows, k]
-            # Planned with APPROACH_DECEL of acc_lim_x and one control interval of travel
-            # held back (the measured one when the loop runs late, self.latency): commands
-            # and odometry arrive late, and a robot braking at the very limit coasts past
-            # the tolerance.
-            v_now = math.hypot(velocity[0], velocity[1])
-            room = dist_goal - 0.5 * cfg.xy_goal_tolerance - v_now * self.latency
-            v_stop = math.sqrt(2.0 * APPROACH_DECEL * cfg.acc_lim_x * max(0.0, room))
-            too_fast = np.hypot(samples[:, 0], samples[:, 1]) > max(v_stop, cfg.min_vel_trans) + EPS
-        else:
-            ex, ey, eth = x[:, n_score - 1], y[:, n_score - 1], th[:, n_score - 1]
-
-        # The footprint must stay free over the whole simulated horizon (sim_time +
-        # stop_time_buffer), as in dwa_local_planner: the margin it leaves beyond the
-        # braking distance is what absorbs late commands and odometry on a loaded
-        # machine. Heading for the final goal the robot stops at its closest approach
-        # (the samples too fast for that are rejected above), so there the check ends
-        # at that point plus the braking time, stop_time_buffer and one control period:
-        # otherwise an arc that runs on past the goal into the wall behind it rejects
-        # the fast samples and the robot creeps up to the goal.
-        t_brake = np.maximum(np.hypot(samples[:, 0], samples[:, 1]) / (2.0 * max(cfg.acc_lim_x, EPS)),
-                             np.abs(samples[:, 2]) / (2.0 * max(cfg.acc_lim_theta, EPS)))
-        n_brake = np.ceil((t_brake + max(0.0, cfg.stop_time_buffer) + self.latency) / dt).astype(np.int64)
-        if final:
-            n_check = np.clip(k + 1 + n_brake, 1, n_steps)
-        else:
-            n_check = np.full(len(samples), n_steps)
-        checked = steps < n_check[:, None]
-        # The lowest clearance over the checked steps and at the pose the next control
-        # cycle starts from (self.latency on): the steps, sim_granularity apart, may
-        # straddle it, and the corner check is sharp.
-        nx, ny, nth = simulate(pose, samples, self.latency, 1)
-        next_clear = self._footprint_clearance(dist_obs, costmap, nx[:, 0], ny[:, 0], nth[:, 0])
-        min_clear = np.minimum(np.where(checked, clearance, np.inf).min(axis=1), next_clear)
-        if escape:
-            lowest = escape_limit(floor, self.footprint.padding)
-            loses = min_clear < lowest
-            # Moving out forward (or turning on the spot; backing up has its own rules
-            # below) needs room only to stop: the next cycle plans again from where this
-            # one leaves the robot (Fox et al.'s admissible velocities). Checked over the
-            # whole horizon, a robot wedged beside furniture with a few centimetres of
-            # room ahead had no constant-velocity arc that kept its clearance for 1.9 s
-            # and stood there for minutes (willow-full exploration). Such a short move may
-            # not spend ESCAPE_TOL, though: it must not bring the footprint nearer than it
-            # is, nor within ESCAPE_SLACK of touching, or the robot would turn a corner
-            # into a wall a millimetre at a time. The same holds for a robot that finds
-            # itself inside its padding while driving (a late command carried it a few
-            # millimetres past what was checked): its dynamic window holds nothing slow,
-            # and with no command at all it would brake along its current arc, unchecked,
-            # deeper into the padding. It may go on at up to its present speed, never
-            # faster, while the clearance stays above the escape limit until it could
-            # stop: passing an obstacle at speed it cannot help losing a few millimetres
-            # more, and it does not come back for more (the floor only rises). (Forced
-            # into escape mode with its padding still clear, a fast robot is not let off
-            # the whole horizon: no command brakes it hard, and it has the padding to
-            # brake in.)
-            speed = np.hypot(samples[:, 0], samples[:, 1])
-            slow = speed <= ESCAPE_VEL_X + EPS
-            v_now = math.hypot(velocity[0], velocity[1]) if c0 < 0.0 else 0.0
-            driving = v_now > ESCAPE_VEL_X
-            n_short = np.minimum(n_check, n_brake)
-            short = steps < n_short[:, None]
-            min_short = np.minimum(np.where(short, clearance, np.inf).min(axis=1), next_clear)
-            keeps_short = min_short >= max(lowest, min(c0, ESCAPE_SLACK))
-            passes = driving & (speed <= v_now + EPS) & (min_short >= lowest)
-            crept = ((slow & keeps_short) | passes) & (samples[:, 0] >= 0.0) & loses
-            # The last resort (below): backing up slowly where it regains clearance by the
-            # time the robot could stop, and loses none on the way.
-            creeps_back = slow & (samples[:, 0] < 0.0) & loses & keeps_short \
-                & (clearance[rows, np.clip(n_short - 1, 0, n_steps - 1)] >= c0 + ESCAPE_SLACK) \
-                & ~((centre == LETHAL_OBSTACLE) & short).any(axis=1)
-            loses &= ~crept
-            checked = np.where(crept[:, None], short, checked)
-        centre_checked = checked
-        leaves = (~inside & checked).any(axis=1)
-        if escape:
-            # Backing up only where it regains clearance or goes back along the plan (a
-            # plan behind a robot in a narrow spot: no turn fits, forward leads away);
-            # never drive away backwards.
-            along = _along_plan(togo, dist_path, costmap, pose, x[:, n_score - 1], y[:, n_score - 1])
-            collides = ~((samples[:, 0] >= 0.0) | (clearance[:, n_score - 1] >= c0 + ESCAPE_GAIN) | along) | \
-                loses | ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1)
-            occ = centre[:, n_score - 1].astype(np.float64)
-            occ[centre[:, n_score - 1] >= INSCRIBED_INFLATED_OBSTACLE] = INSCRIBED_INFLATED_OBSTACLE
-            occ -= 100.0 * np.minimum(clearance[:, n_score - 1], 0.0)  # prefer regaining clearance
-        else:
-            collides = (min_clear < 0.0) | \
-                ((centre >= INSCRIBED_INFLATED_OBSTACLE) & inside & centre_checked).any(axis=1)
-            # Heading for the goal, the robot stops at the closest approach: cells the
-            # arc would cross after it do not count.
-            scored = steps[:, :n_score] <= (k[:, None] if final else n_score)
-            occ = np.where(inside[:, :n_score] & scored, centre[:, :n_score], 0).max(axis=1).astype(np.float64)
+        ro = rollouts(cfg, pose, samples, costmap, clearance, self.latency)  # 3
+        dist_goal = math.hypot(scene.goal[0] - pose[0], scene.goal[1] - pose[1])
+        speed = math.hypot(velocity[0], velocity[1])
+        k, too_fast = goal_approach(cfg, samples, ro, scene, dist_goal, speed, self.latency)   # 4
+        n_check, n_brake = check_horizon(cfg, samples, ro, k, scene.final, self.latency)
         oscillates = self.oscillation.forbidden(samples)
-
-        # Path and goal distances of the end point and of the point in front of it.
-        fx = ex + cfg.forward_point_distance * np.cos(eth)
-        fy = ey + cfg.forward_point_distance * np.sin(eth)
-        emx = np.floor((ex - costmap.origin_x) / res).astype(np.int64)
-        emy = np.floor((ey - costmap.origin_y) / res).astype(np.int64)
-        fmx = np.floor((fx - costmap.origin_x) / res).astype(np.int64)
-        fmy = np.floor((fy - costmap.origin_y) / res).astype(np.int64)
-        end_in = (emx >= 0) & (emy >= 0) & (emx < w) & (emy < h)
-        leaves |= ~end_in
-        valid = ~(collides | leaves | oscillates | too_fast)
-        if escape and not valid.any():
-            # Boxed in: nose to a wall, a wall along the side, no turn possible and no
-            # reversing regains clearance. Back out along the obstacle then, as long as the
-            # clearance does not drop; once clear, the robot can turn again.
-            keeps = ~(loses |
-                      ((centre == LETHAL_OBSTACLE) & centre_checked).any(axis=1))
-            backing = (samples[:, 0] < 0.0) & keeps & ~(leaves | oscillates | too_fast)
-            if not backing.any():
-                # Nor that: creep back, as far as the robot could stop, where that regains
-                # clearance; the next cycle plans again from there, so a three-point turn
-                # comes a cycle at a time. In a dead-end pocket with its plan behind it, a
-                # robot with a wall along its side and another a hand's width behind its
-                # tail had no arc backwards that stayed clear for the whole horizon, though
-                # a few centimetres back and right let it turn (willow-full exploration,
-                # seed 0: 260 s wedged, and explore ended "the robot is stuck").
-                backing = creeps_back & ~(leaves | oscillates | too_fast)
-            if backing.any():
-                valid = backing
-                collides = collides & ~backing
-        path_end = dist_path[emy.clip(0, h - 1), emx.clip(0, w - 1)]
-        path_fwd = dist_path[fmy.clip(0, h - 1), fmx.clip(0, w - 1)]
-        # Goal distance as base_local_planner's MapGrid measures it: along the path
-        # (plan length left from the nearest plan cell + distance to it), so rotating
-        # in place never looks like progress and driving along the plan always does.
-        goal_end = togo[emy.clip(0, h - 1), emx.clip(0, w - 1)] + path_end
-        if final:
-            # Every trajectory that passes within half the xy tolerance of the goal gets
-            # there equally well; among them the earliest arrival wins (below). Without
-            # this dead zone a slower sample whose arc happens to hit the goal point a
-            # centimetre more exactly wins, and the robot creeps up to the goal.
-            dead = GOAL_DEAD_ZONE * cfg.xy_goal_tolerance
-            path_end = np.maximum(path_end - dead, 0.0)
-            goal_end = np.maximum(goal_end - dead, 0.0)
-        # dwa_planner's goal_front_costs: the forward point is pulled to the local goal
-        # shifted forward along the plan's last direction, so pointing the nose at the
-        # goal from afar scores no better than getting there.
-        front_goal = local_goal + cfg.forward_point_distance * _end_direction(local, self.plan)
-        goal_fwd = np.hypot(fx - front_goal[0], fy - front_goal[1])
-        near_goal = dist_goal <= NEAR_GOAL_FACTOR * cfg.forward_point_distance
-        fwd_w = 0.0 if near_goal else 1.0
-        if final and cfg.forward_point_distance > 0:
-            # A trajectory that reaches the goal stops there: its forward point would
-            # stick out past the plan's end and charge it path distance, so stopping
-            # short would score better and the robot would creep up to the goal. The
-            # forward-point terms fade out as the scored point nears the goal.
-            fwd_w = fwd_w * np.clip(np.hypot(ex - goal[0], ey - goal[1])
-                                    / (NEAR_GOAL_FACTOR * cfg.forward_point_distance), 0.0, 1.0)
-        cost = (0.5 * cfg.path_distance_bias * (path_end + fwd_w * path_fwd)
-                + 0.5 * cfg.goal_distance_bias * (goal_end + fwd_w * goal_fwd)
-                + cfg.occdist_scale * occ
-                + cfg.twirling_scale * np.abs(samples[:, 2]))
-        if final:
-            # Tie-break among trajectories that all reach the goal: the earliest arrival.
-            cost += ARRIVAL_TIME_WEIGHT * cfg.goal_distance_bias * (k + 1) * dt
-        self._debug = dict(samples=samples, cost=cost, valid=valid, path_end=path_end, path_fwd=path_fwd,
-                           goal_end=goal_end, goal_fwd=goal_fwd, occ=occ, final=final)
-        n_valid = int(valid.sum())
-        braking = False
-        if n_valid == 0 and final and too_fast.any():
-            # Safe but every sample too fast to stop at the goal (it came into view late,
-            # or odometry jumped): brake as hard as the window allows along the best of
-            # those arcs, rather than give up and have move_base stop dead.
-            safe = ~(collides | leaves | oscillates)
-            if safe.any():
-                speed = np.hypot(samples[:, 0], samples[:, 1])
-                slowest = safe & (speed <= speed[safe].min() + EPS)
-                valid, n_valid, braking = slowest, int(slowest.sum()), True
-        if n_valid == 0:
-            # Which constraint rejected the samples (a sample may fail several).
-            # escape mode: say why (forced: ordinary DWA found nothing from a pose with
-            # clearance; else the robot is within the padding or on an inscribed cell)
-            why = ("forced, no ordinary trajectory" if c0 >= 0 and cc is not None
-                   and cc < INSCRIBED_INFLATED_OBSTACLE else f"clearance {c0:+.3f} m")
-            counts = [f"{int(collides.sum())} collide" + (f" (escape mode, {why}: would lose clearance)"
-                                                          if escape else ""),
-                      f"{int(leaves.sum())} leave the local costmap", f"{int(oscillates.sum())} would "
-                      "oscillate (reverse a motion just made)", f"{int(too_fast.sum())} too fast to stop at the goal"]
-            counts = [c for c, m in zip(counts, (collides, leaves, oscillates, too_fast)) if m.any()]
-            return DWAResult(ok=False, reason=f"no valid trajectory: of {len(samples)} samples "
-                             + ", ".join(counts) + _nearest_blocked(dist_obs, costmap, pose),
-                             n_samples=len(samples), mode="escape" if escape else "dwa")
-        cost = np.where(valid, cost, np.inf)
-        best = int(np.argmin(cost))
+        if escape:
+            verdict = escape_admissibility(self.policy, floor, c0, speed if c0 < 0.0 else 0.0, samples, ro, k,
+                                           n_check, n_brake, oscillates, too_fast, scene, pose)
+        else:
+            verdict = ordinary_admissibility(self.policy, ro, k, n_check, oscillates, too_fast, costmap)
+        cost = scores(cfg, samples, ro, k, obstacle_costs(ro, k, scene.final, escape), scene, dist_goal)  # 5
+        best, n_valid = choose(cost, samples, verdict, scene.final)           # 6
+        if best is None:                                                      # 7
+            why = None
+            if escape:
+                why = ("forced, no ordinary trajectory" if c0 >= 0 and cc is not None
+                       and cc < INSCRIBED_INFLATED_OBSTACLE else f"clearance {c0:+.3f} m")
+            return DWAResult(ok=False, reason=no_valid_reason(verdict, why, scene.dist_obs, costmap, pose),
+                             n_samples=len(samples), mode=mode)
         cmd = tuple(float(v) for v in samples[best])
         self.oscillation.update(tuple(pose), cmd, cfg.min_vel_trans)
-        traj = np.column_stack([x[best, :n_score], y[best, :n_score], th[best, :n_score]])
+        n = ro.n_score
+        traj = np.column_stack([ro.x[best, :n], ro.y[best, :n], ro.th[best, :n]])
         return DWAResult(cmd=cmd, trajectory=traj, n_valid=n_valid, n_samples=len(samples),
-                         cost=float(cost[best]), mode="escape" if escape else "dwa")
+                         cost=float(cost[best]), mode=mode)
 
     # -- goal: stop, rotate, done --------------------------------------------------------
     def _stopped(self, velocity):
@@ -1027,7 +1132,7 @@ class DWAPlanner:
         ths = pose[2] + vth * cfg.sim_time * np.arange(1, n + 1) / n
         clear = self._footprint_clearance(dist, costmap, np.full(n, pose[0]), np.full(n, pose[1]), ths)
         c0 = self._footprint_clearance(dist, costmap, np.array(pose[0]), np.array(pose[1]), np.array(pose[2]))
-        return bool(clear.min() >= min(0.0, float(c0)) - ESCAPE_SLACK)
+        return bool(clear.min() >= self.policy.rotation(float(c0)))
 
     def _stop_and_rotate(self, pose, velocity, costmap):
         cfg = self.config
@@ -1051,7 +1156,6 @@ class DWAPlanner:
         vth = rotation_speed(err, velocity[2], cfg.acc_lim_theta, cfg.max_vel_theta,
                              cfg.min_vel_theta, cfg.yaw_goal_tolerance, dt)
         moving = abs(vx) > EPS or abs(vy) > EPS
-        self.rotating_to_goal = True  # LatchedStopRotateController: no more driving once here
         if not self._rotation_is_free(pose, vth, costmap):
             if moving:
                 return DWAResult(cmd=(vx, vy, brake(velocity[2], cfg.acc_lim_theta)), mode="stop")

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .dwa import footprint_checks, footprint_clearance, obstacle_distance, recovery_limit, wrap_angle
+from .dwa import ClearancePolicy, footprint_checks, footprint_clearance, obstacle_distance, wrap_angle
 
 DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
@@ -108,10 +108,10 @@ def footprint_free(footprint, costmap, pose, x, y, th, limit=None):
     (x, y, yaw) keeps its clearance from the lethal and unknown cells (DWA's
     footprint_clearance: axis circles, refined by the grid circles and the corners near
     obstacles): >= 0, or from a pose already inside footprint_padding, down to
-    dwa.recovery_limit. Held to >= 0 there, a robot that DWA's escape mode had left a
+    dwa.ClearancePolicy.recovery. Held to >= 0 there, a robot that DWA's escape mode had left a
     centimetre from a wall could neither back up nor turn at all. limit: the lowest
     clearance allowed, as a function of the start pose's clearance (default:
-    recovery_limit with the footprint's padding)."""
+    ClearancePolicy.recovery with the footprint's padding)."""
     dist = obstacle_distance(costmap)
     if dist is None:
         return True
@@ -119,7 +119,7 @@ def footprint_free(footprint, costmap, pose, x, y, th, limit=None):
     # One pass over the start pose (first) and the motion's poses.
     clear = footprint_clearance(dist, costmap, np.append(float(pose[0]), x), np.append(float(pose[1]), y),
                                 np.append(float(pose[2]), th), covers, corners)
-    lowest = limit(float(clear[0])) if limit is not None else recovery_limit(float(clear[0]), footprint.padding)
+    lowest = limit(float(clear[0])) if limit is not None else ClearancePolicy(footprint.padding).recovery(float(clear[0]))
     return bool((clear[1:] >= lowest).all())
 
 
