@@ -35,7 +35,8 @@ SECTIONS = {
     "slam_carmen": "the SLAM core offline on the CARMEN Intel and ACES logs",
     "slam_sim": "slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour",
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping",
-    "planning": "the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop over seeded goal pairs",
+    "planning": ("the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop of every global x local "
+                 "planner over seeded goal pairs"),
     "explore": "frontier exploration (explore.launch, real time)",
     "patrol": "the patrol: 10 rounds x 3 spots, a box dropped on the route twice (real time)",
     "multi_robot": "the multi-robot lesson and the number of robots at >= 1x real time",
