@@ -395,12 +395,12 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
 
 
 def matrix_table(results):
-    """The compact table of closed-loop results [(world name, result), ...] as lines."""
-    lines = [f"{'world':<18} {'global':<9} {'local':<15} {'reached':>8} {'coll':>5} "
+    """The compact table of closed-loop results [(world key, result), ...] as lines."""
+    lines = [f"{'world':<8} {'global':<9} {'local':<15} {'reached':>8} {'coll':>5} "
              f"{'t/geodesic':>10} {'t/plan':>7} {'wall s':>7}"]
     for name, c in results:
         geo, plan = c["geodesic_ratio_median"], c["ratio_median"]
-        lines.append(f"{name:<18} {c['global_planner']:<9} {c['local_planner']:<15} "
+        lines.append(f"{name:<8} {c['global_planner']:<9} {c['local_planner']:<15} "
                      f"{c['reached_share'] * 100:7.0f}% {c['collisions']:5d} "
                      f"{'-' if geo is None else format(geo, '.2f'):>10} {'-' if plan is None else format(plan, '.2f'):>7} "
                      f"{c.get('wall_s', 0):7.0f}")
@@ -488,7 +488,7 @@ def main(argv=None):
                             global_kind, pairs, args.max_vel_x)
             c["wall_s"] = time.time() - t0
             out[combination_key(world, global_kind, local_kind)] = c
-            done.append((os.path.basename(path), c))
+            done.append((world, c))
             print(f"closed loop {os.path.basename(path)} ({global_kind} + {local_kind}): "
                   f"{c['reached_share'] * 100:.0f}% of {c['runs']} reached, {c['collisions']} collisions, "
                   f"time / (L / max_vel_x) median: L geodesic {_r(c['geodesic_ratio_median'])}, "
