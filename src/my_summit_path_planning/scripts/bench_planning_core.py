@@ -206,7 +206,8 @@ def combination_params(params, global_kind="navfn", local_kind="dwa", max_vel_x=
     """params (a MoveBaseParams, not modified) as move_base would be configured for this
     (global, local) combination: base_global_planner / base_local_planner set to the
     kinds' type strings and their namespaces merged over the config's (GLOBAL_KINDS,
-    LOCAL_KINDS; every global planner with the config's NavfnROS COURSE_GLOBAL_PARAMS); max_vel_x [m/s]: the local planner's top speed (and DWA's max_vel_trans)."""
+    LOCAL_KINDS; every global planner with the config's NavfnROS COURSE_GLOBAL_PARAMS);
+    max_vel_x [m/s]: the local planner's top speed (and DWA's max_vel_trans)."""
     gtype, gns = GLOBAL_KINDS[global_kind]
     ltype, lns = LOCAL_KINDS[local_kind]
     spaces = dict(params.namespaces)
@@ -402,8 +403,7 @@ def matrix_table(results):
         geo, plan = c["geodesic_ratio_median"], c["ratio_median"]
         lines.append(f"{name:<8} {c['global_planner']:<9} {c['local_planner']:<15} "
                      f"{c['reached_share'] * 100:7.0f}% {c['collisions']:5d} "
-                     f"{'-' if geo is None else format(geo, '.2f'):>10} {'-' if plan is None else format(plan, '.2f'):>7} "
-                     f"{c.get('wall_s', 0):7.0f}")
+                     f"{_r(geo):>10} {_r(plan):>7} {c.get('wall_s', 0):7.0f}")
     return lines
 
 

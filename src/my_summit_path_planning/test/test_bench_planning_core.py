@@ -51,7 +51,8 @@ def test_global_planner_of_each_kind_is_built_by_type_with_the_course_settings(p
         assert g.config.use_dijkstra is dijkstra
 
 
-@pytest.mark.parametrize("local_kind, cls, dwa_flag", [("dwa", DWAPlanner, None), ("trajectory", TrajectoryPlanner, False),
+@pytest.mark.parametrize("local_kind, cls, dwa_flag", [("dwa", DWAPlanner, None),
+                                                       ("trajectory", TrajectoryPlanner, False),
                                                        ("trajectory-dwa", TrajectoryPlanner, True)])
 def test_local_planner_of_each_kind_is_built_by_type_and_max_vel_x_reaches_it(params, local_kind, cls, dwa_flag):
     base = _plugins(bench.combination_params(params, "navfn", local_kind)).make_local_planner()
