@@ -193,7 +193,7 @@ def closed_loop_row(c, what, max_vel_x, has_target):
     geo, plan = c.get("geodesic_ratio_median"), c["ratio_median"]
     judged = geo if "geodesic_ratio_median" in c else plan
     return row(f"closed loop, {what}, {c['runs']} seeded pairs, max_vel_x {max_vel_x} m/s: reached / collisions / "
-               "median time ratio to the grid geodesic (to the plan)",
+               "median time ratio, geodesic (plan)",
                f"{c['reached_share'] * 100:.0f}% / {c['collisions']} / {_fmt(geo, '.2f')} ({_fmt(plan, '.2f')})",
                {"reached_share": c["reached_share"], "collisions": c["collisions"], "geodesic_ratio_median": geo,
                 "ratio_median": plan},
