@@ -478,7 +478,8 @@ def main(argv=None):
     combos = [(g, loc) for g in GLOBAL_PLANNERS for loc in LOCAL_PLANNERS] if args.matrix \
         else [(args.global_planner, args.local_planner)]
     done = []
-    for world, path, n_runs in (("builtin", BUILTIN, args.runs), ("willow", WILLOW, args.willow_runs)):
+    for world, path in WORLDS:
+        n_runs = {"builtin": args.runs, "willow": args.willow_runs}[world]
         if n_runs <= 0:
             continue
         pairs = draw_pairs(params, path, n_runs, args.seed)
