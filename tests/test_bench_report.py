@@ -224,3 +224,39 @@ def test_git_commit_is_dirty_only_for_changes_a_run_does_not_write_itself(tmp_pa
     (tmp_path / "code.py").write_text("1\n")
     assert bench_report.git_commit(str(tmp_path)) == head + "-dirty"
     assert bench_report.git_commit(str(tmp_path / "docs" / "no-such-dir")) is None
+
+
+def test_planning_rows_one_per_planner_combination_and_world_judged_on_the_geodesic():
+    """bench_planning_core --matrix: one row per (world, global, local) present, in the page's
+    order; the target (>= 98% / 0 / <= 1.5) judged on the median time ratio to the grid
+    geodesic, the plan ratio shown beside it; an old result without it judged on the plan's."""
+    def loop(reached, collisions, geo, plan, runs=50, **kw):
+        out = {"runs": runs, "reached_share": reached, "collisions": collisions, "ratio_median": plan, **kw}
+        if geo is not None:
+            out["geodesic_ratio_median"] = geo
+        return out
+
+    res = {k: v for k, v in SECTION_RESULTS["planning"].items() if not k.startswith("closed_loop_")}
+    res.update({
+        "closed_loop_willow_dijkstra_trajectory_dwa": loop(0.98, 0, 1.5, 1.6, runs=20),  # at the targets: met
+        "closed_loop_builtin_astar_trajectory": loop(1.0, 0, 1.6, 1.4, max_vel_x=0.65),  # geodesic over 1.5
+        "closed_loop_builtin": loop(1.0, 0, None, 1.32),                    # old result: the plan ratio
+        "closed_loop_builtin_trajectory": loop(1.0, 1, 1.2, 1.1),           # a collision
+        "closed_loop_builtin_dijkstra": loop(0.96, 0, 1.2, 1.1),            # 96% < 98%
+        "closed_loop_builtin_fast": loop(1.0, 0, 1.45, 1.57, max_vel_x=1.5),
+    })
+    rows = [r for r in bench_report.rows_planning(res) if r["figure"].startswith("closed loop")]
+    names = [r["figure"].split(", ")[2] for r in rows]
+    assert names == ["NavFn + DWA", "NavFn + TrajectoryPlanner", "GlobalPlanner A* + TrajectoryPlanner",
+                     "GlobalPlanner Dijkstra + DWA", "GlobalPlanner Dijkstra + TrajectoryPlanner dwa: true",
+                     "NavFn + DWA"]
+    assert [r["figure"].split(", ")[1] for r in rows] == ["built-in world"] * 4 + ["willow-full-0.05",
+                                                                                  "built-in world"]
+    assert [r["met"] for r in rows] == [True, False, False, False, True, None]
+    assert rows[0]["measured"] == "100% / 0 / - (1.32)"
+    assert rows[2]["measured"] == "100% / 0 / 1.60 (1.40)" and "max_vel_x 0.65 m/s" in rows[2]["figure"]
+    assert rows[4]["measured"] == "98% / 0 / 1.50 (1.60)" and "20 seeded pairs" in rows[4]["figure"]
+    assert rows[4]["target"] == ">= 98% / 0 / <= 1.5 (geodesic)" and rows[5]["target"] is None
+    assert rows[5]["values"] == {"reached_share": 1.0, "collisions": 0, "geodesic_ratio_median": 1.45,
+                                 "ratio_median": 1.57}
+    assert "max_vel_x 1.0 m/s" in rows[0]["figure"] and "max_vel_x 1.5 m/s" in rows[5]["figure"]

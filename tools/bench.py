@@ -26,10 +26,12 @@ beside each time. Sections:
               node on the tour: CPU per simulated second, and a profile of where it goes
   planning    the path-planning core (no ROS): NavFn and GlobalPlanner (A*, Dijkstra) plan
               time on willow-full-0.05 and their paths against the exact grid geodesic;
-              one DWA control cycle; closed loop
-              (global + local costmaps, NavFn, DWA, simulator) over 50 seeded goal pairs on
-              the built-in world and 20 on willow-full-0.05: share reached, collisions,
-              median of time to goal / (planned path length / max_vel_x)
+              one DWA control cycle; closed loop (global + local costmaps, simulator) of
+              every global planner (NavFn, GlobalPlanner A*, Dijkstra) with every local
+              planner (DWA, TrajectoryPlanner with dwa false and true) over the same 50
+              seeded goal pairs on the built-in world and 20 on willow-full-0.05: share
+              reached, collisions, median of time to goal / (grid geodesic / max_vel_x)
+              and / (planned path length / max_vel_x)
   explore     frontier exploration (explore.launch, real time) of the built-in world from 5
               seeded start poses and of willow-full from one: explored share of the reachable free area,
               collisions, simulated time, map precision / recall
@@ -240,11 +242,11 @@ def bench_amcl(runs):
 
 def bench_planning(runs):
     """The path-planning core benchmark; timings are medians over `runs` repeats (the
-    closed loop is seeded and deterministic, so it runs once)."""
+    closed loop is seeded and deterministic, so it runs once, every planner combination)."""
     script = os.path.join(WS, "src", "my_summit_path_planning", "scripts", "bench_planning_core.py")
     path = os.path.join(OUT, "bench_planning.json")
     subprocess.run([sys.executable, script, "--repeats", str(runs), "--runs", "50", "--willow-runs", "20",
-                    "--json", path], check=True)
+                    "--matrix", "--json", path], check=True)
     with open(path) as f:
         res = json.load(f)
     # For contrast, the built-in world's closed loop at the base's top speed (1.5 m/s):
@@ -256,9 +258,8 @@ def bench_planning(runs):
     with open(fast_path) as f:
         fast = json.load(f)
     res["closed_loop_builtin_fast"] = dict(fast["closed_loop_builtin"], max_vel_x=fast["max_vel_x"])
-    for key in ("closed_loop_builtin", "closed_loop_willow", "closed_loop_builtin_fast"):
-        if key in res:  # the per-run details stay in the JSON files
-            res[key] = {k: v for k, v in res[key].items() if k != "runs_detail"}
+    for key in [k for k in res if k.startswith("closed_loop_")]:  # the per-run details stay in the JSON files
+        res[key] = {k: v for k, v in res[key].items() if k != "runs_detail"}
     return res
 
 

@@ -7,18 +7,33 @@
    GlobalPlanner also with cost_factor 0.01: the path geometry alone).
 2. One DWA control cycle (the course's sample counts) on a local costmap: median time.
 3. Closed loop in summit_xl_sim.sim.Simulation with ground-truth pose: global costmap
-   (static + obstacle + inflation) + NavFn (replanning at planner_frequency) + rolling
-   local costmap from the laser + DWA, between seeded random free pose pairs; reports
-   the share reached within tolerance, collisions, and the median of
-   time-to-goal / (planned path length / max_vel_x). --local-planner trajectory (or
-   trajectory-dwa) drives with base_local_planner's TrajectoryPlannerROS instead of DWA,
-   configured as the course's navigation_stage lesson (TRAJECTORY_PARAMS).
+   (static + obstacle + inflation) + a global planner (replanning at planner_frequency)
+   + rolling local costmap from the laser + a local planner, between seeded random free
+   pose pairs (the same pairs for every planner); reports the share reached within
+   tolerance, collisions, and the median of time-to-goal / (L / max_vel_x) with L the
+   exact 8-connected grid geodesic (navfn.grid_geodesic_length, the same yardstick for
+   every planner; the benchmark's target) and with L that run's first plan's length.
+   The planners are built by their type strings through plugins.MoveBasePlugins, as
+   move_base builds them:
+     --global-planner navfn     navfn/NavfnROS (config/)
+                      astar     global_planner/GlobalPlanner, use_dijkstra false
+                      dijkstra  global_planner/GlobalPlanner, use_dijkstra true
+     --local-planner  dwa            dwa_local_planner/DWAPlannerROS (config/)
+                      trajectory     base_local_planner/TrajectoryPlannerROS, dwa false
+                      trajectory-dwa base_local_planner/TrajectoryPlannerROS, dwa true
+   GlobalPlanner gets the course's NavfnROS allow_unknown and default_tolerance, its other
+   parameters default; TrajectoryPlannerROS is configured as the course's
+   navigation_stage lesson (TRAJECTORY_PARAMS). --matrix runs every combination over the
+   same pairs and prints a table; each combination is one JSON key (combination_key).
 
 Parameters come from the package's config/*.yaml. Usage:
   bench_planning_core.py [--runs 50] [--willow-runs 20] [--repeats 3] [--json PATH]
-                         [--max-vel-x 1.5] [--local-planner dwa|trajectory|trajectory-dwa]
+                         [--max-vel-x 1.5] [--global-planner navfn|astar|dijkstra]
+                         [--local-planner dwa|trajectory|trajectory-dwa] [--matrix]
+  replay one run: --skip-navfn --runs 10 --only 7 -v --trace 0.5
 """
 import argparse
+import dataclasses
 import json
 import math
 import os
@@ -35,10 +50,11 @@ from my_summit_path_planning import cost_values as cv  # noqa: E402
 from my_summit_path_planning.dwa import DWAPlanner  # noqa: E402
 from my_summit_path_planning.global_planner import GlobalPlanner, GlobalPlannerConfig  # noqa: E402
 from my_summit_path_planning.layers import scan_to_observation  # noqa: E402
+from my_summit_path_planning.nav_core import namespace_of  # noqa: E402
 from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E402
 from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
+from my_summit_path_planning.plugins import MoveBasePlugins  # noqa: E402
 from my_summit_path_planning.recovery import clear_costmap_layers  # noqa: E402
-from my_summit_path_planning.trajectory_planner import TrajectoryPlanner  # noqa: E402
 
 CONFIG = os.path.join(HERE, "..", "config")
 WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
@@ -61,16 +77,21 @@ TRAJECTORY_PARAMS = {
     "yaw_goal_tolerance": 0.05, "sim_time": 1.7, "sim_granularity": 0.025, "vx_samples": 3,
     "vtheta_samples": 20, "goal_distance_bias": 0.8, "path_distance_bias": 0.6, "occdist_scale": 0.01,
     "heading_lookahead": 0.325, "oscillation_reset_dist": 0.05, "prune_plan": True}
-LOCAL_PLANNERS = ("dwa", "trajectory", "trajectory-dwa")
-
-
-def local_planner(kind, params, footprint):
-    """The closed loop's local planner: DWAPlanner from config/, or TrajectoryPlanner
-    (TRAJECTORY_PARAMS, dwa: false for 'trajectory', true for 'trajectory-dwa')."""
-    if kind == "dwa":
-        return DWAPlanner(params.dwa, footprint)
-    return TrajectoryPlanner.from_params(dict(TRAJECTORY_PARAMS, dwa=kind == "trajectory-dwa"), footprint,
-                                         controller_frequency=params.move_base.controller_frequency)
+# The closed loop's planners: option -> (move_base type string, its namespace's parameters
+# over the config's). GlobalPlanner also gets COURSE_GLOBAL_PARAMS from the config's NavfnROS.
+GLOBAL_KINDS = {
+    "navfn": ("navfn/NavfnROS", {}),
+    "astar": ("global_planner/GlobalPlanner", {"use_dijkstra": False}),
+    "dijkstra": ("global_planner/GlobalPlanner", {"use_dijkstra": True}),
+}
+COURSE_GLOBAL_PARAMS = ("allow_unknown", "default_tolerance")  # the course's choices for any global planner
+LOCAL_KINDS = {
+    "dwa": ("dwa_local_planner/DWAPlannerROS", {}),
+    "trajectory": ("base_local_planner/TrajectoryPlannerROS", dict(TRAJECTORY_PARAMS, dwa=False)),
+    "trajectory-dwa": ("base_local_planner/TrajectoryPlannerROS", dict(TRAJECTORY_PARAMS, dwa=True)),
+}
+GLOBAL_PLANNERS, LOCAL_PLANNERS = tuple(GLOBAL_KINDS), tuple(LOCAL_KINDS)
+WORLDS = (("builtin", BUILTIN), ("willow", WILLOW))   # JSON key part, map
 
 
 def peak_rss_mb():
@@ -181,31 +202,63 @@ def bench_dwa_cycle(params, n=200, seed=0):
             "p90_ms": 1000 * float(np.percentile(times, 90))}
 
 
-def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, trace=False, planner_kind="dwa"):
-    """only: run numbers (1-based) to simulate, the others are drawn but skipped (to
-    replay a failure); trace: print the controller's state every trace [s] of simulated time;
-    planner_kind: one of LOCAL_PLANNERS."""
+def combination_params(params, global_kind="navfn", local_kind="dwa", max_vel_x=None):
+    """params (a MoveBaseParams, not modified) as move_base would be configured for this
+    (global, local) combination: base_global_planner / base_local_planner set to the
+    kinds' type strings and their namespaces merged over the config's (GLOBAL_KINDS,
+    LOCAL_KINDS; every global planner with the config's NavfnROS COURSE_GLOBAL_PARAMS);
+    max_vel_x [m/s]: the local planner's top speed (and DWA's max_vel_trans)."""
+    gtype, gns = GLOBAL_KINDS[global_kind]
+    ltype, lns = LOCAL_KINDS[local_kind]
+    spaces = dict(params.namespaces)
+    course = params.namespace("NavfnROS")
+    gns = {**{k: course[k] for k in COURSE_GLOBAL_PARAMS if k in course}, **gns}
+    for type_name, extra in ((gtype, gns), (ltype, lns)):
+        name = namespace_of(type_name)
+        spaces[name] = {**(spaces.get(name) or {}), **extra}
+    if max_vel_x:
+        local = spaces[namespace_of(ltype)]
+        local["max_vel_x"] = max_vel_x
+        if ltype == "dwa_local_planner/DWAPlannerROS":
+            local["max_vel_trans"] = max_vel_x
+    mb = dataclasses.replace(params.move_base, base_global_planner=gtype, base_local_planner=ltype)
+    return dataclasses.replace(params, move_base=mb, namespaces=spaces)
+
+
+def combination_key(world, global_kind, local_kind):
+    """The JSON key of a closed loop: closed_loop_<world>[_<global>][_<local>], the
+    course's NavFn and DWA left out (closed_loop_builtin is NavFn + DWA)."""
+    key = "closed_loop_" + world
+    if global_kind != "navfn":
+        key += "_" + global_kind
+    if local_kind != "dwa":
+        key += "_" + local_kind.replace("-", "_")
+    return key
+
+
+def draw_pairs(params, world_yaml, n_runs, seed=0):
+    """n_runs seeded start / goal poses on world_yaml, the same for every planner: free
+    cells of the global costmap (static map, inflation), the robot's footprint clear of
+    the walls at both, at least MIN_PAIR_DIST apart and connected (exact 8-connected grid
+    geodesic through cells below the inscribed cost finite; a pair in a closed room is
+    drawn again). [{"start": (x, y, yaw), "goal": (x, y, yaw), "geodesic_m", "sim_seed"}, ...]."""
     from summit_xl_sim.sim import Simulation
     from summit_xl_sim.world import World, WorldError
     world = World.from_yaml(world_yaml)
-    g = global_costmap(params, world.grid)
-    cm = g.master
-    planner = NavFn(params.navfn)
-    cfg = params.dwa
-    period = 1.0 / params.move_base.controller_frequency
-    sub = max(1, int(round(period / SIM_DT)))
-    replan_every = int(round(1.0 / (params.move_base.planner_frequency * period))) \
-        if params.move_base.planner_frequency > 0 else 0
+    cm = global_costmap(params, world.grid).master
+    passable = cm.data < cv.INSCRIBED_INFLATED_OBSTACLE
     rng = np.random.default_rng(seed)
     free = np.argwhere(cm.data == cv.FREE_SPACE)
-    runs = []
-    for k in range(n_runs):
-        sim = Simulation(World.from_yaml(world_yaml), seed=seed * 1000 + k)
+    pairs, k = [], -1
+    while len(pairs) < n_runs:
+        k += 1
+        sim = Simulation(world, seed=seed * 1000 + k)   # only to check the poses: nothing moves
         while True:
             a = free[rng.integers(len(free))]
             sx, sy = cm.map_to_world(a[1], a[0])
+            syaw = rng.uniform(-math.pi, math.pi)
             try:
-                st = sim.add_robot("robot", sx, sy, rng.uniform(-math.pi, math.pi))
+                st = sim.add_robot("robot", sx, sy, syaw)
                 break
             except WorldError:
                 continue
@@ -215,24 +268,59 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
             gyaw = rng.uniform(-math.pi, math.pi)
             if math.hypot(gx - sx, gy - sy) >= MIN_PAIR_DIST and sim.blocked_by(st, (gx, gy, gyaw)) is None:
                 break
-        first = planner.make_plan(cm, (sx, sy), (gx, gy))
-        if not first.ok:   # unreachable pair (closed room): draw another, not a failure
+        geo = grid_geodesic_length(passable, (a[1], a[0]), (b[1], b[0])) * cm.resolution
+        if math.isfinite(geo):
+            pairs.append({"start": (sx, sy, st.pose[2]), "goal": (gx, gy, gyaw), "geodesic_m": geo,
+                          "sim_seed": seed * 1000 + k})
+    return pairs
+
+
+def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, trace=False, planner_kind="dwa",
+                global_kind="navfn", pairs=None, max_vel_x=None):
+    """Closed loop of one (global_kind, planner_kind) combination over n_runs seeded pairs
+    (draw_pairs; pairs: already drawn ones). The planners are built by type string
+    through plugins.MoveBasePlugins, as move_base builds them: the global planner once,
+    a fresh local planner per goal. only: run numbers (1-based) to simulate, the others
+    skipped (to replay a failure); trace: print the controller's state every trace [s]
+    of simulated time."""
+    from summit_xl_sim.sim import Simulation
+    from summit_xl_sim.world import World
+    p = combination_params(params, global_kind, planner_kind, max_vel_x)
+    pairs = pairs if pairs is not None else draw_pairs(p, world_yaml, n_runs, seed)
+    period = 1.0 / p.move_base.controller_frequency
+    sub = max(1, int(round(period / SIM_DT)))
+    replan_every = int(round(1.0 / (p.move_base.planner_frequency * period))) \
+        if p.move_base.planner_frequency > 0 else 0
+    plugins = MoveBasePlugins(p, footprint=build_costmap(p.local_costmap, "local_costmap").footprint)
+    planner = plugins.global_planner
+    if verbose:
+        for note in plugins.notes:    # what move_base would log once about the planners' parameters
+            print(f"  {plugins.global_type} + {plugins.local_type}: {note}", flush=True)
+    runs = []
+    for k, pair in enumerate(pairs):
+        if only and k + 1 not in only:
             continue
-        if only and len(runs) + 1 not in only:
-            runs.append(None)
-            continue
-        loc = build_costmap(params.local_costmap, "local_costmap")
+        (sx, sy, syaw), (gx, gy, gyaw) = pair["start"], pair["goal"]
+        sim = Simulation(World.from_yaml(world_yaml), seed=pair["sim_seed"])
+        st = sim.add_robot("robot", sx, sy, syaw)
+        g = global_costmap(p, sim.world.grid)   # the static map's costmap: each goal starts alike
         g_obs = g.layer("obstacle_layer")
-        g_obs.reset()
-        dwa = local_planner(planner_kind, params, loc.footprint)
+        cm = g.master
+        loc = build_costmap(p.local_costmap, "local_costmap")
+        dwa = plugins.make_local_planner()
         cfg = dwa.config
-        dwa.set_plan(first.path, gyaw)
-        las = st.laser
-        optimal = first.length / cfg.max_vel_x
+        geodesic_optimal = pair["geodesic_m"] / cfg.max_vel_x
+        first = planner.make_plan(cm, (sx, sy), (gx, gy))
+        optimal = first.length / cfg.max_vel_x if first.ok else geodesic_optimal
         limit = max(TIME_LIMIT_MIN, TIME_LIMIT_FACTOR * optimal)
         t, cycle, reached, fails, dwa_ms, stuck, recoveries = 0.0, 0, False, 0, [], 0, 0
-        modes = {}          # [s] of simulated time per DWA mode (where the time goes)
+        modes = {}          # [s] of simulated time per local planner mode (where the time goes)
         t_moving = None     # [s] first time the robot drives faster than half max_vel_x
+        if first.ok:
+            dwa.set_plan(first.path, gyaw)
+        else:
+            t = limit       # no plan on a connected pair: a failure of the global planner
+        las = st.laser
         while t < limit:
             pose = st.pose
             ranges = sim.scan("robot")
@@ -247,7 +335,7 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
                 if r.ok and not dwa.xy_latched:
                     dwa.set_plan(r.path, gyaw)
             t0 = time.perf_counter()
-            res = dwa.compute_velocity(pose, st.vel, loc.master)
+            res = dwa.compute_velocity_commands(pose, st.vel, loc.master)
             dwa_ms.append(1000 * (time.perf_counter() - t0))
             modes[res.mode] = modes.get(res.mode, 0.0) + sub * SIM_DT
             if t_moving is None and st.vel[0] >= 0.5 * cfg.max_vel_x:
@@ -258,7 +346,7 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
             if not res.ok:
                 fails += 1
                 stuck += 1
-                if stuck * period >= params.move_base.controller_patience:
+                if stuck * period >= p.move_base.controller_patience:
                     # move_base would start its recoveries here: the aggressive reset of the
                     # obstacle layers (the rotations are left to the node), then a new plan.
                     clear_costmap_layers(loc, pose[:2], 0.0, ("obstacle_layer",), force_clear_all=True)
@@ -281,23 +369,46 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
         err = math.hypot(st.pose[0] - gx, st.pose[1] - gy)
         yaw_err = abs((st.pose[2] - gyaw + math.pi) % (2 * math.pi) - math.pi)
         ok = reached and err <= cfg.xy_goal_tolerance + 0.05 and yaw_err <= cfg.yaw_goal_tolerance + 0.05
-        run = {"start": [sx, sy], "goal": [gx, gy, gyaw], "reached": bool(ok), "time_s": t,
-               "plan_m": first.length, "ratio": t / optimal, "collisions": st.collisions,
+        why = "" if ok else (f"no first plan: {first.reason}" if not first.ok else
+                             "goal reported reached out of tolerance" if reached else f"timeout ({limit:.0f} s)")
+        run = {"start": [sx, sy, syaw], "goal": [gx, gy, gyaw], "reached": bool(ok), "failure": why, "time_s": t,
+               "plan_m": first.length, "geodesic_m": pair["geodesic_m"], "ratio": t / optimal,
+               "geodesic_ratio": t / geodesic_optimal, "collisions": st.collisions,
                "xy_error_m": err, "yaw_error_rad": yaw_err, "no_command_cycles": fails, "recoveries": recoveries,
-               "dwa_median_ms": float(np.median(dwa_ms)), "mode_s": modes, "t_moving_s": t_moving}
+               "dwa_median_ms": float(np.median(dwa_ms)) if dwa_ms else None, "mode_s": modes,
+               "t_moving_s": t_moving}
         runs.append(run)
         if verbose:
-            print(f"  run {len(runs):3d}: reached={ok} t={t:5.1f}s ratio={run['ratio']:.2f} "
-                  f"coll={st.collisions} err={err:.2f}m plan={first.length:.1f}m modes "
-                  f"{ {k: round(v, 1) for k, v in modes.items()} } moving at {t_moving}", flush=True)
-    runs = [r for r in runs if r is not None]
+            print(f"  run {k + 1:3d}: reached={ok} t={t:5.1f}s ratio={run['ratio']:.2f} "
+                  f"(geodesic {run['geodesic_ratio']:.2f}) coll={st.collisions} err={err:.2f}m "
+                  f"plan={first.length:.1f}m geodesic={pair['geodesic_m']:.1f}m modes "
+                  f"{ {m: round(v, 1) for m, v in modes.items()} } moving at {t_moving} {why}", flush=True)
     reached = [r for r in runs if r["reached"]]
-    return {"world": world_yaml, "local_planner": planner_kind, "runs": len(runs),
+    # Medians over every run: a run that failed counts with the time it was given up at.
+    return {"world": world_yaml, "global_planner": global_kind, "local_planner": planner_kind,
+            "global_type": plugins.global_type, "local_type": plugins.local_type,
+            "max_vel_x": dwa.config.max_vel_x if runs else None, "runs": len(runs),
             "reached_share": len(reached) / max(1, len(runs)),
             "collisions": int(sum(r["collisions"] for r in runs)),
-            # Over every run: a run that failed counts with the time it was given up at.
             "ratio_median": float(np.median([r["ratio"] for r in runs])) if runs else None,
+            "geodesic_ratio_median": float(np.median([r["geodesic_ratio"] for r in runs])) if runs else None,
             "runs_detail": runs}
+
+
+def matrix_table(results):
+    """The compact table of closed-loop results [(world key, result), ...] as lines."""
+    lines = [f"{'world':<8} {'global':<9} {'local':<15} {'reached':>8} {'coll':>5} "
+             f"{'t/geodesic':>10} {'t/plan':>7} {'wall s':>7}"]
+    for name, c in results:
+        geo, plan = c["geodesic_ratio_median"], c["ratio_median"]
+        lines.append(f"{name:<8} {c['global_planner']:<9} {c['local_planner']:<15} "
+                     f"{c['reached_share'] * 100:7.0f}% {c['collisions']:5d} "
+                     f"{_r(geo):>10} {_r(plan):>7} {c.get('wall_s', 0):7.0f}")
+    return lines
+
+
+def _r(x):
+    return "-" if x is None else f"{x:.2f}"
 
 
 def main(argv=None):
@@ -318,11 +429,13 @@ def main(argv=None):
     ap.add_argument("--local-planner", choices=LOCAL_PLANNERS, default="dwa",
                     help="the closed loop's local planner (trajectory: base_local_planner's Trajectory "
                          "Rollout, trajectory-dwa: the same with dwa: true)")
+    ap.add_argument("--global-planner", choices=GLOBAL_PLANNERS, default="navfn",
+                    help="the closed loop's global planner (astar, dijkstra: global_planner/GlobalPlanner)")
+    ap.add_argument("--matrix", action="store_true",
+                    help="closed loop of every (global, local) planner combination over the same pairs")
     args = ap.parse_args(argv)
     params = load_move_base_params(CONFIG)
-    if args.max_vel_x:
-        params.dwa.max_vel_x = params.dwa.max_vel_trans = args.max_vel_x
-    out = {"max_vel_x": params.dwa.max_vel_x}
+    out = {"max_vel_x": combination_params(params, max_vel_x=args.max_vel_x).dwa.max_vel_x}
     if not args.skip_navfn:
         # Timings: the median over each repeat, then the median of those (load on a
         # shared machine varies between repeats); lengths are the same every repeat.
@@ -362,21 +475,27 @@ def main(argv=None):
         print(f"DWA cycle: median {d['median_ms']:.2f} ms wall, {d['cpu_median_ms']:.2f} ms CPU "
               f"(repeats {d['repeats_median_ms']}), p90 "
               f"{d['p90_ms']:.2f} ms, {d['samples']} samples", flush=True)
-    for key, path, n_runs in (("closed_loop_builtin", BUILTIN, args.runs),
-                              ("closed_loop_willow", WILLOW, args.willow_runs)):
+    combos = [(g, loc) for g in GLOBAL_PLANNERS for loc in LOCAL_PLANNERS] if args.matrix \
+        else [(args.global_planner, args.local_planner)]
+    done = []
+    for world, path in WORLDS:
+        n_runs = {"builtin": args.runs, "willow": args.willow_runs}[world]
         if n_runs <= 0:
             continue
-        t0 = time.time()
-        c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace, args.local_planner)
-        c["wall_s"] = time.time() - t0
-        if args.local_planner != "dwa":
-            key += "_" + args.local_planner.replace("-", "_")
-        out[key] = c
-        print(f"closed loop {os.path.basename(path)} ({args.local_planner}): "
-              f"{c['reached_share'] * 100:.0f}% of {c['runs']} reached, "
-              f"{c['collisions']} collisions, time/(plan/max_vel_x) median "
-              f"{c['ratio_median'] if c['ratio_median'] is None else round(c['ratio_median'], 2)} "
-              f"({c['wall_s']:.0f} s wall)", flush=True)
+        pairs = draw_pairs(params, path, n_runs, args.seed)
+        for global_kind, local_kind in combos:
+            t0 = time.time()
+            c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace, local_kind,
+                            global_kind, pairs, args.max_vel_x)
+            c["wall_s"] = time.time() - t0
+            out[combination_key(world, global_kind, local_kind)] = c
+            done.append((world, c))
+            print(f"closed loop {os.path.basename(path)} ({global_kind} + {local_kind}): "
+                  f"{c['reached_share'] * 100:.0f}% of {c['runs']} reached, {c['collisions']} collisions, "
+                  f"time / (L / max_vel_x) median: L geodesic {_r(c['geodesic_ratio_median'])}, "
+                  f"L plan {_r(c['ratio_median'])} ({c['wall_s']:.0f} s wall)", flush=True)
+    if len(done) > 1:
+        print("\n".join(matrix_table(done)), flush=True)
     out["peak_rss_mb"] = peak_rss_mb()
     print(f"peak RSS {out['peak_rss_mb']:.0f} MB")
     if args.json:
