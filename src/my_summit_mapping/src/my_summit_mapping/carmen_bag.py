@@ -17,10 +17,10 @@ mount when the first scan comes. Stamps are the FLASER ipc timestamps made stric
 `write_bag` / `read_bag` turn them into a bag and back (rosbag and the message classes
 are imported there, so the pure part is usable without ROS).
 """
-import math
 from dataclasses import dataclass
 
 import numpy as np
+from summit_nav_common.geometry import quaternion_to_yaw, yaw_to_quaternion_zw
 
 from . import carmen
 
@@ -66,12 +66,9 @@ def bag_scans(log: carmen.CarmenLog, seed: int) -> BagScans:
 
 
 def _yaw_quaternion(q, yaw):
+    """Set quaternion message q to a rotation by yaw [rad] about z."""
     q.x = q.y = 0.0
-    q.z, q.w = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
-
-
-def _quaternion_yaw(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    q.z, q.w = yaw_to_quaternion_zw(yaw)
 
 
 def write_bag(scans: BagScans, path: str) -> None:
@@ -138,7 +135,7 @@ def read_bag(path: str) -> BagScans:
                 for tf in msg.transforms:
                     if (tf.header.frame_id, tf.child_frame_id) == (ODOM_FRAME, BASE_FRAME):
                         p = tf.transform.translation
-                        odom_at[tf.header.stamp.to_nsec()] = (p.x, p.y, _quaternion_yaw(tf.transform.rotation))
+                        odom_at[tf.header.stamp.to_nsec()] = (p.x, p.y, quaternion_to_yaw(tf.transform.rotation))
                     elif (tf.header.frame_id, tf.child_frame_id) == (BASE_FRAME, LASER_FRAME):
                         offset = tf.transform.translation.x
             elif topic == SCAN_TOPIC:
@@ -147,7 +144,7 @@ def read_bag(path: str) -> BagScans:
                 ranges.append(np.asarray(msg.ranges, float))
             else:
                 p = msg.pose.position
-                ref.append((p.x, p.y, _quaternion_yaw(msg.pose.orientation)))
+                ref.append((p.x, p.y, quaternion_to_yaw(msg.pose.orientation)))
     if not stamps or len(ref) != len(stamps):
         raise ValueError(f"{path}: not a CARMEN bag ({len(stamps)} scans on {SCAN_TOPIC}, "
                          f"{len(ref)} poses on {REFERENCE_TOPIC})")
