@@ -78,17 +78,7 @@ from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from .navfn import POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length
 from .params import ParamError, _coerce
 
-try:
-    from numba import njit
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover - exercised only where numba is absent
-    HAVE_NUMBA = False
-
-    def njit(*args, **kwargs):
-        """Fallback: run the kernel as plain Python."""
-        if len(args) == 1 and callable(args[0]):
-            return args[0]
-        return lambda f: f
+from summit_nav_common.jit import njit
 
 PATH_STEP = 0.5          # [cells] gradient-descent step (GradientPath's pathStep)
 CLEAR_ENDPOINT = 2       # [cells] half-width of the square around the goal filled in after expansion

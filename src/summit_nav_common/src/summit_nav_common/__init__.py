@@ -5,6 +5,7 @@ Pure (numpy / OpenCV, no rospy):
   map_io     map files with ROS map_server's / map_saver's semantics (GridMap)
   raycast    exact grid ray casting (distance-transform march + cell traversal)
   files      atomic file writes
+  jit        numba's njit, or plain Python where numba is missing
 ROS plumbing (summit_nav_common.ros):
   tf_wait    a transform at a message's stamp, waited for in wall time
   shutdown   publishing from a node's own thread while rospy shuts down

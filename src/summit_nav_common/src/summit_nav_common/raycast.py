@@ -29,17 +29,7 @@ import math
 import cv2
 import numpy as np
 
-try:
-    from numba import njit
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover - exercised only where numba is absent
-    HAVE_NUMBA = False
-
-    def njit(*args, **kwargs):
-        """Fallback: run the kernel as plain Python."""
-        if len(args) == 1 and callable(args[0]):
-            return args[0]
-        return lambda f: f
+from summit_nav_common.jit import njit
 
 SQRT2 = math.sqrt(2.0)
 # Below this distance to the nearest occupied cell centre [cells] the march hands over to
