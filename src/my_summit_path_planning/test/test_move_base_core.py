@@ -7,8 +7,9 @@ import pytest
 
 from my_summit_path_planning.costmap import Costmap2D
 from my_summit_path_planning.move_base_core import (CLEARING, CONTROLLING, PLANNING, RECOVERY_FAILED, GoalError,
-                                                    MoveBaseCore, RateWatch, check_goal_cell, check_goal_pose)
-from my_summit_path_planning.cost_values import LETHAL_OBSTACLE
+                                                    MoveBaseCore, RateWatch, blocked_by_map, check_goal_cell,
+                                                    check_goal_pose)
+from my_summit_path_planning.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from my_summit_path_planning.params import MoveBaseConfig
 from my_summit_path_planning.recovery import RecoveryStep
 
@@ -303,3 +304,20 @@ def test_goal_checks():
         check_goal_cell(m, (1.025, 1.025, 0.0), False, 0.05)
     (x, y, yaw), moved = check_goal_cell(m, (1.025, 1.025, 0.3), False, 0.2)
     assert moved and yaw == 0.3 and math.hypot(x - 1.025, y - 1.025) == pytest.approx(0.15, abs=0.03)
+
+
+def test_goal_blocked_only_by_sensed_marks_is_not_blocked_by_the_map():
+    """Regression (fresh-clone CI, multi_robot_lesson_fake): robot_1's goal (10.12, 12.97)
+    was aborted at once as 'too close to an obstacle (inscribed cell)' 2 s into the run: a
+    phantom point of the laser (a mixed pixel off robot_0's edge) had just been marked
+    next to it. The real move_base accepts such a goal and plans; only the map itself
+    (a wall within the inscribed radius, or unknown space) blocks it at once."""
+    grid = Costmap2D(40, 40, 0.05, 0.0, 0.0)
+    grid.data[:, 30:] = LETHAL_OBSTACLE                     # a wall from x = 1.5 m
+    assert not blocked_by_map([grid], (0.5, 1.0), 0.31, False)
+    assert blocked_by_map([grid], (1.3, 1.0), 0.31, False)  # 0.2 m from the wall
+    assert blocked_by_map([grid], (1.6, 1.0), 0.31, False)  # in it
+    grid.data[0:5, 0:5] = NO_INFORMATION
+    assert blocked_by_map([grid], (0.1, 0.1), 0.31, False)
+    assert not blocked_by_map([grid], (0.1, 0.1), 0.05, True)
+    assert blocked_by_map([grid], (5.0, 1.0), 0.31, True)   # off the map

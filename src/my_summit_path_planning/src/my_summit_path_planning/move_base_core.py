@@ -111,6 +111,29 @@ def check_goal_cell(costmap, goal, allow_unknown, tolerance, frame="map"):
     return (free[0], free[1], goal[2]), True
 
 
+def blocked_by_map(static_grids, goal, inscribed_radius, allow_unknown):
+    """True when the map itself blocks the goal (x, y [m]): off a static layer's grid
+    (Costmap2D, same frame), a lethal cell of it within inscribed_radius [m], or the goal
+    cell unknown while allow_unknown is false. False when only what the sensors marked blocks
+    it: the real move_base accepts such a goal and plans (its recoveries clear marks), so a
+    laser's passing phantom point must not abort a goal at once."""
+    for grid in static_grids:
+        cell = grid.world_to_map(goal[0], goal[1])
+        if cell is None:
+            return True
+        if not allow_unknown and int(grid.data[cell[1], cell[0]]) == NO_INFORMATION:
+            return True
+        r = int(math.ceil(inscribed_radius / grid.resolution))
+        x0, y0 = max(0, cell[0] - r), max(0, cell[1] - r)
+        x1, y1 = min(grid.size_x, cell[0] + r + 1), min(grid.size_y, cell[1] + r + 1)
+        yy, xx = np.nonzero(grid.data[y0:y1, x0:x1] == LETHAL_OBSTACLE)
+        cx = grid.origin_x + (xx + x0 + 0.5) * grid.resolution
+        cy = grid.origin_y + (yy + y0 + 0.5) * grid.resolution
+        if np.any(np.hypot(cx - goal[0], cy - goal[1]) <= inscribed_radius):
+            return True
+    return False
+
+
 # -- the state machine ---------------------------------------------------------------------
 @dataclass
 class CycleOutput:
