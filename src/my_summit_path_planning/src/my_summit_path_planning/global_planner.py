@@ -75,7 +75,7 @@ import cv2
 import numpy as np
 
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from .navfn import POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length
+from .navfn import POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints
 from .params import ParamError, _coerce
 
 from summit_nav_common.jit import njit
@@ -592,18 +592,10 @@ class GlobalPlanner:
         tol = cfg.default_tolerance if tolerance is None else float(tolerance)
         self.potential = None
         self.cells_expanded = 0
-        for what, p in (("start", start), ("goal", goal)):
-            if len(p) < 2 or not all(math.isfinite(float(v)) for v in p[:2]):
-                return GlobalPlanResult(reason=f"{what} {tuple(p)} is not a finite point")
-        sc = costmap.world_to_map(start[0], start[1])
-        if sc is None:
-            return GlobalPlanResult(reason=f"start ({start[0]:.2f}, {start[1]:.2f}) is off the costmap")
-        gc = costmap.world_to_map(goal[0], goal[1])
-        if gc is None:
-            return GlobalPlanResult(reason=f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is off the costmap")
+        sc, gc, why = plan_endpoints(costmap, start, goal)
+        if why:
+            return GlobalPlanResult(reason=why)
         data = costmap.data
-        if data[sc[1], sc[0]] == LETHAL_OBSTACLE:
-            return GlobalPlanResult(reason="start is in a lethal cell (the robot is in collision)")
         cost = planner_costs(data, cfg.lethal_cost, cfg.neutral_cost, cfg.cost_factor, cfg.allow_unknown)
         if cfg.outline_map:
             cost[0, :] = cost[-1, :] = cost[:, 0] = cost[:, -1] = np.inf

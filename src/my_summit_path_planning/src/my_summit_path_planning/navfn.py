@@ -483,6 +483,24 @@ def grid_geodesic_length(passable, start_cell, goal_cell):
     return float(v) if v < POT_HIGH else math.inf
 
 
+def plan_endpoints(costmap, start, goal):
+    """(start cell, goal cell, '') of a plan request on costmap, or (None, None, why) when
+    an end is not a finite point, is off the costmap, or the start is in a lethal cell.
+    The global planners' common input checks (navfn's and global_planner's texts)."""
+    for what, p in (("start", start), ("goal", goal)):
+        if len(p) < 2 or not all(math.isfinite(float(v)) for v in p[:2]):
+            return None, None, f"{what} {tuple(p)} is not a finite point"
+    sc = costmap.world_to_map(start[0], start[1])
+    if sc is None:
+        return None, None, f"start ({start[0]:.2f}, {start[1]:.2f}) is off the costmap"
+    gc = costmap.world_to_map(goal[0], goal[1])
+    if gc is None:
+        return None, None, f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is off the costmap"
+    if costmap.data[sc[1], sc[0]] == LETHAL_OBSTACLE:
+        return None, None, "start is in a lethal cell (the robot is in collision)"
+    return sc, gc, ""
+
+
 class NavFn:
     """The NavFn global planner (base_global_planner's makePlan, without ROS).
 
@@ -538,18 +556,10 @@ class NavFn:
         """
         cfg = self.config
         tol = cfg.default_tolerance if tolerance is None else float(tolerance)
-        for what, p in (("start", start), ("goal", goal)):
-            if len(p) < 2 or not all(math.isfinite(float(v)) for v in p[:2]):
-                return PlanResult(reason=f"{what} {tuple(p)} is not a finite point")
-        sc = costmap.world_to_map(start[0], start[1])
-        if sc is None:
-            return PlanResult(reason=f"start ({start[0]:.2f}, {start[1]:.2f}) is off the costmap")
-        gc = costmap.world_to_map(goal[0], goal[1])
-        if gc is None:
-            return PlanResult(reason=f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is off the costmap")
+        sc, gc, why = plan_endpoints(costmap, start, goal)
+        if why:
+            return PlanResult(reason=why)
         data = costmap.data
-        if data[sc[1], sc[0]] == LETHAL_OBSTACLE:
-            return PlanResult(reason="start is in a lethal cell (the robot is in collision)")
         # navfn's cell costs, recomputed only when the costmap changed (replanning at
         # planner_frequency on an unchanged costmap reuses them and the graph).
         if self._cache_data is not None and self._cache_data.shape == data.shape \
