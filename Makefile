@@ -42,7 +42,7 @@ integration: build
 	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) -m integration $(PYTEST_ARGS)
 
 demo: build
-	@$(SOURCE_WS) $(PYTHON) tools/demo.py $(if $(GUI),--gui,)
+	@$(SOURCE_WS) $(PYTHON) tools/demo.py $(if $(GUI),--gui,) $(if $(SPEED),--speed $(SPEED),)
 
 # Runs the benchmark sections (BENCH_ARGS="--only laser --runs 3" for some), merges them
 # into docs/bench.json and renders docs/benchmarks.md and the README's table from it.

@@ -52,6 +52,9 @@ def world_spots(path=WORLD_DESCRIPTION):
     return {k: (v[0], v[1], math.radians(v[2])) for k, v in doc["spots"].items()}
 
 
+SKIP_REPORTING_NODES = ("slam_gmapping", "amcl", "move_base")
+
+
 class StepFailed(RuntimeError):
     """A step of the course project could not be carried out (the message says why)."""
 
@@ -80,6 +83,10 @@ class CourseProject:
         self._tf = None               # tf2 buffer for amcl_pose (made once navigation starts)
         self._subs = [rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=50),
                       rospy.Subscriber("/collisions", UInt32, self._on_coll, queue_size=5)]
+        # scans each node lost because it fell behind (its latched ~scans_skipped)
+        self.scans_skipped = {node: 0 for node in SKIP_REPORTING_NODES}
+        self._subs += [rospy.Subscriber(f"/{node}/scans_skipped", UInt32, self._on_skipped, node, queue_size=5)
+                       for node in SKIP_REPORTING_NODES]
 
     # ----------------------------------------------------------------- plumbing
     def _on_truth(self, msg):
@@ -90,6 +97,15 @@ class CourseProject:
     def _on_coll(self, msg):
         with self.lock:
             self.collisions = max(self.collisions, int(msg.data))
+
+    def _on_skipped(self, msg, node):
+        with self.lock:
+            self.scans_skipped[node] = max(self.scans_skipped[node], int(msg.data))
+
+    def skipped_summary(self):
+        """'amcl 0, slam_gmapping 0, move_base 0': scans each node lost so far."""
+        with self.lock:
+            return ", ".join(f"{node} {n}" for node, n in self.scans_skipped.items())
 
     def pose(self):
         """The robot's latest ground-truth pose (x, y, yaw) in the world frame."""

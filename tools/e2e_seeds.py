@@ -4,6 +4,10 @@ and prints one line per run and the pass count (issue 6's figure: 10 of 10).
 
     make e2e-seeds                 seeds 1..10
     make e2e-seeds SEEDS="3 7"     these seeds
+    tools/e2e_seeds.py --speed 4   at 4x real time
+
+Each line also names the scans amcl, slam_gmapping and move_base had to skip because they
+fell behind (their ~scans_skipped).
 
 Each run is a separate rostest (own master, own ROS_HOME under output/e2e_seeds/seed_N,
 where its logs, saved map and spots.txt stay for inspection).
@@ -40,8 +44,11 @@ def main():
             f.write(out)
         ok = rc == 0 and "RESULT: SUCCESS" in out
         passed += ok
-        failure = re.search(r"<failure[^>]*>([^\n]*)", _results(home))
-        print(f"seed {seed}: {'PASS' if ok else 'FAIL'} in {time.monotonic() - t0:.0f} s wall"
+        results = _results(home)
+        failure = re.search(r"<failure[^>]*>([^\n]*)", results)
+        skipped = re.search(r"SCANS_SKIPPED ([^\n<]*)", out + results)
+        print(f"seed {seed}: {'PASS' if ok else 'FAIL'} in {time.monotonic() - t0:.0f} s wall; scans skipped: "
+              + (skipped.group(1).strip() if skipped else "not reported")
               + ("" if ok else f": {failure.group(1)[:300] if failure else 'rc ' + str(rc)}"), flush=True)
     print(f"{passed} passed, {len(args.seeds) - passed} failed")
     return 0 if passed == len(args.seeds) else 1

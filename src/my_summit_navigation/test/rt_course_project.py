@@ -84,6 +84,7 @@ class CourseProjectEndToEnd(unittest.TestCase):
                       f"sim_time_s={rospy.Time.now().to_sec() - t0:.1f} final_xy_error_m={err[0]:.3f} "
                       f"final_yaw_error_rad={err[1]:.3f} collisions={project.collisions}", flush=True)
             progress(f"done: {project.collisions} collisions")
+            print(f"SCANS_SKIPPED {project.skipped_summary()}", flush=True)
             self.assertGreaterEqual(quality["precision"], rospy.get_param("~min_precision"))
             self.assertGreaterEqual(quality["recall"], rospy.get_param("~min_recall"))
             for label, ok, message, (exy, eyaw) in rows:
