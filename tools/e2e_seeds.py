@@ -30,8 +30,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("seeds", nargs="*", type=int, default=list(range(1, 11)))
     ap.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
+    ap.add_argument("--cpu-hog", action="store_true",
+                    help="with a process spinning on one core beside it (the rostest's default)")
     args = ap.parse_args()
-    out_dir = os.path.join(WS, "output", "e2e_seeds" if args.speed == 1.0 else f"e2e_seeds_{args.speed:g}x")
+    out_dir = os.path.join(WS, "output", ("e2e_seeds" if args.speed == 1.0 else f"e2e_seeds_{args.speed:g}x")
+                           + ("_cpu_hog" if args.cpu_hog else ""))
     passed = 0
     for seed in args.seeds:
         home = os.path.join(out_dir, f"seed_{seed}")
@@ -39,7 +42,8 @@ def main():
         env = dict(os.environ, ROS_HOME=home, ROS_LOG_DIR=os.path.join(home, "log"))
         t0 = time.monotonic()
         rc, out = run_bounded(["rostest", f"--pkgdir={os.path.dirname(TEST)}", "--package=course_project", TEST,
-                               f"seed:={seed}", f"speed:={args.speed}"], env, TIMEOUT)
+                               f"seed:={seed}", f"speed:={args.speed}",
+                               f"cpu_hog:={'true' if args.cpu_hog else 'false'}"], env, TIMEOUT)
         with open(os.path.join(home, "rostest.out"), "w") as f:
             f.write(out)
         ok = rc == 0 and "RESULT: SUCCESS" in out

@@ -9,9 +9,15 @@ three spots and record each with /save_spot, then 'end'; drive back to the hall;
 (precision/recall against the true walls), every goal and call succeeds, the robot
 stands within ~xy_tolerance / ~yaw_tolerance of each world spot after its
 /get_coordinates call, the spots file holds the three labels, zero collisions.
+
+With ~cpu_hog (the default in tests/course_project.test) a process spins on one core for
+the whole run, as a student's Gazebo or browser would beside the stack; it is started
+and stopped here, and must still be running at the end and have used at least
+~cpu_hog_min_share of one core (on an idle machine it takes about all of one).
 """
 import math
 import os
+import subprocess
 import sys
 import time
 import unittest
@@ -28,9 +34,47 @@ import course_project as cp  # noqa: E402
 from bench_slam_sim import TourRecorder  # noqa: E402
 
 
+class CpuHog:
+    """One process spinning on a core from __enter__ to __exit__; share(): the share of
+    one core it used over that time (from /proc)."""
+
+    def __enter__(self):
+        self.proc = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+        self.wall0 = time.monotonic()
+        return self
+
+    def share(self):
+        with open(f"/proc/{self.proc.pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        cpu_s = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")   # utime + stime
+        return cpu_s / max(time.monotonic() - self.wall0, 1e-6)
+
+    def __exit__(self, *exc):
+        self.proc.kill()
+        self.proc.wait()
+
+
+class NoHog:
+    def __enter__(self):
+        return None
+
+    def __exit__(self, *exc):
+        pass
+
+
 class CourseProjectEndToEnd(unittest.TestCase):
     def test_course_project(self):
         rospy.init_node("course_project_test")
+        with (CpuHog() if rospy.get_param("~cpu_hog", False) else NoHog()) as hog:
+            self.run_course_project()
+            if hog is not None:
+                self.assertIsNone(hog.proc.poll(), "the CPU hog ended before the run did")
+                share = hog.share()
+                print(f"CPU_HOG used {share:.2f} of a core", flush=True)
+                self.assertGreaterEqual(share, rospy.get_param("~cpu_hog_min_share"),
+                                        "the CPU hog did not keep a core busy: the run was not under load")
+
+    def run_course_project(self):
         xy_tol, yaw_tol = rospy.get_param("~xy_tolerance"), rospy.get_param("~yaw_tolerance")
         work = os.path.join(rospkg.get_ros_home(), "course_project")
         wall0 = time.monotonic()
