@@ -92,6 +92,7 @@ def main():
         orig_run = threading.Thread.run
 
         def run(self):
+            names[threading.get_native_id()] = f"{type(self).__name__} {self.name}"  # a receive loop renames it
             prof = profiler()
             local.state["whole_thread"] = True
             local.state["active"] = True
