@@ -272,3 +272,20 @@ def test_planning_rows_one_per_planner_combination_and_world_judged_on_the_geode
     assert rows[5]["values"] == {"reached_share": 1.0, "collisions": 0, "geodesic_ratio_median": 1.45,
                                  "ratio_median": 1.57}
     assert "max_vel_x 1.0 m/s" in rows[0]["figure"] and "max_vel_x 1.5 m/s" in rows[5]["figure"]
+
+
+def test_stack_cpu_rows_name_the_reference_and_sort_the_profile():
+    """The CPU row judges the sum against 0.6 and gives the issue's C++ figures as a
+    reference; the profile row lists move_base's stages, largest first; no profile, no
+    profile rows."""
+    res = SECTION_RESULTS["stack_cpu"]
+    rows = bench_report.rows_stack_cpu(res)
+    assert rows[0]["target"] == "<= 0.6 s" and rows[0]["measured"].startswith("0.571 s (map_server 0.001")
+    assert "not measured here: amcl 0.094, move_base 0.41, sum 0.5" in rows[0]["measured"]
+    assert rows[0]["values"]["runs_sum"] == [0.571, 0.6]
+    assert rows[3]["measured"] == "costmaps: inflation layer 30%, DWA: rollouts 20%"
+    assert rows[4]["measured"] == "local_costmap 75%, planner 25%"
+    over = dict(res, median=dict(res["median"], cpu_per_sim_s=dict(res["median"]["cpu_per_sim_s"], sum=0.61)))
+    assert bench_report.rows_stack_cpu(over)[0]["met"] is False
+    bare = {k: v for k, v in res.items() if k != "profile"}
+    assert len(bench_report.rows_stack_cpu(bare)) == 3
