@@ -167,6 +167,16 @@ SECTION_RESULTS = {
                  "closed_loop_willow": {"runs": 19, "reached_share": 0.95, "collisions": 0, "ratio_median": None},
                  "closed_loop_builtin_fast": {"runs": 50, "reached_share": 1.0, "collisions": 0, "ratio_median": 1.57,
                                               "max_vel_x": 1.5}},
+    "stack_cpu": {"goals": 10, "speed": 1.0, "reached_min": 10, "collisions": 1,
+                  "real_cpu_per_sim_s": {"amcl": 0.094, "move_base": 0.41, "sum": 0.50},
+                  "median": {"cpu_per_sim_s": {"map_server": 0.001, "amcl": 0.12, "move_base": 0.45, "sum": 0.571,
+                                               "summit_xl_sim": 0.2},
+                             "peak_rss_mb": {"map_server": 60.0, "amcl": 260.0, "move_base": 300.0,
+                                             "summit_xl_sim": 150.0},
+                             "reached": 10, "sim_s": 180.0},
+                  "runs": [{"cpu_per_sim_s": {"sum": 0.571}}, {"cpu_per_sim_s": {"sum": 0.6}}],
+                  "profile": {"goals": 4, "profile_shares": {"costmaps: inflation layer": 0.3, "DWA: rollouts": 0.2},
+                              "threads": {"local_costmap": 3.0, "planner": 1.0}}},
     "explore": {"builtin": {"coverage_min": 0.977, "coverage_median": 0.983, "collisions": 0,
                             "runs": [{"precision": 0.99, "recall": 0.99, "sim_s": 99.0}]}},
     "patrol": {"rounds": 10, "spots_expected": 30, "reached": 30, "skipped": 0, "collisions": 0,
@@ -186,6 +196,7 @@ EXPECTED_MET = {
     # GlobalPlanner A*: faster than NavFn, path 1.029 > 1.02; Dijkstra: slower, no path target;
     # closed loop on willow: 95% < 98% and no ratio
     "planning": [True, True, True, False, False, None, True, True, False, None],
+    "stack_cpu": [True, None, False, None, None],  # 0.571 <= 0.6; a collision
     "explore": [True, True],
     "patrol": [True],
     "multi_robot": [True, None],
@@ -261,3 +272,20 @@ def test_planning_rows_one_per_planner_combination_and_world_judged_on_the_geode
     assert rows[5]["values"] == {"reached_share": 1.0, "collisions": 0, "geodesic_ratio_median": 1.45,
                                  "ratio_median": 1.57}
     assert "max_vel_x 1.0 m/s" in rows[0]["figure"] and "max_vel_x 1.5 m/s" in rows[5]["figure"]
+
+
+def test_stack_cpu_rows_name_the_reference_and_sort_the_profile():
+    """The CPU row judges the sum against 0.6 and gives the issue's C++ figures as a
+    reference; the profile row lists move_base's stages, largest first; no profile, no
+    profile rows."""
+    res = SECTION_RESULTS["stack_cpu"]
+    rows = bench_report.rows_stack_cpu(res)
+    assert rows[0]["target"] == "<= 0.6 s" and rows[0]["measured"].startswith("0.571 s (map_server 0.001")
+    assert "not measured here: amcl 0.094, move_base 0.41, sum 0.5" in rows[0]["measured"]
+    assert rows[0]["values"]["runs_sum"] == [0.571, 0.6]
+    assert rows[3]["measured"] == "costmaps: inflation layer 30%, DWA: rollouts 20%"
+    assert rows[4]["measured"] == "local_costmap 75%, planner 25%"
+    over = dict(res, median=dict(res["median"], cpu_per_sim_s=dict(res["median"]["cpu_per_sim_s"], sum=0.61)))
+    assert bench_report.rows_stack_cpu(over)[0]["met"] is False
+    bare = {k: v for k, v in res.items() if k != "profile"}
+    assert len(bench_report.rows_stack_cpu(bare)) == 3

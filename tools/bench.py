@@ -32,6 +32,10 @@ beside each time. Sections:
               seeded goal pairs on the built-in world and 20 on willow-full-0.05: share
               reached, collisions, median of time to goal / (grid geodesic / max_vel_x)
               and / (planned path length / max_vel_x)
+  stack_cpu   map_server + amcl + move_base (move_base.launch sim:=true, the course's config) on a
+              fixed, seeded 10-goal run on the built-in world at 1x real time
+              (bench_stack_cpu.py): CPU per simulated second and peak RSS per node, goals
+              reached, collisions; one profiled run of move_base for where its time goes
   explore     frontier exploration (explore.launch, real time) of the built-in world from 5
               seeded start poses and of willow-full from one: explored share of the reachable free area,
               collisions, simulated time, map precision / recall
@@ -265,6 +269,29 @@ def bench_planning(runs):
     return res
 
 
+STACK_CPU_PROFILE_GOALS = 4   # the profiled run drives the first goals only (the profiler is slow)
+
+
+def bench_stack_cpu(runs):
+    """bench_stack_cpu.py: median of `runs` runs of the 10 goals, then one profiled run of
+    move_base over the first STACK_CPU_PROFILE_GOALS goals."""
+    script = os.path.join(WS, "src", "my_summit_path_planning", "scripts", "bench_stack_cpu.py")
+    path = os.path.join(OUT, "bench_stack_cpu.json")
+    subprocess.run([sys.executable, script, "--runs", str(runs), "--json", path], check=True)
+    with open(path) as f:
+        res = json.load(f)
+    prof_path = os.path.join(OUT, "bench_stack_cpu_profile.json")
+    subprocess.run([sys.executable, script, "--runs", "1", "--goals", str(STACK_CPU_PROFILE_GOALS), "--profile",
+                    os.path.join(OUT, "move_base_profile"), "--json", prof_path], check=True)
+    with open(prof_path) as f:
+        prof = json.load(f)
+    res["profile"] = {"goals": prof["goals"], "profile_shares": prof.get("profile_shares"),
+                      "threads": prof.get("threads")}
+    for r in res["runs"]:   # the per-goal details stay in the script's JSON
+        r.pop("goal_results", None)
+    return res
+
+
 def _json_tail(out):
     """The JSON document at the end of a script's output."""
     start = out.rfind("\n{")
@@ -343,7 +370,7 @@ def main():
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once()))
         return 0
-    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_sim", "amcl", "planning", "explore", "patrol",
+    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_sim", "amcl", "planning", "stack_cpu", "explore", "patrol",
                          "multi_robot"]
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
@@ -356,6 +383,7 @@ def main():
         "slam_sim": lambda: bench_slam_sim(args.runs),
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "planning": lambda: bench_planning(args.runs),
+        "stack_cpu": lambda: bench_stack_cpu(max(1, min(args.runs, 3))),
         "explore": bench_explore,
         "patrol": bench_patrol,
         "multi_robot": lambda: bench_multi_robot(min(args.runs, 3)),

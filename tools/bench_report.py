@@ -39,6 +39,9 @@ SECTIONS = {
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping; the live node's CPU",
     "planning": ("the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop of every global x local "
                  "planner over seeded goal pairs"),
+    "stack_cpu": ("map_server + amcl + move_base (the course's config) on a fixed, seeded 10-goal run on the "
+                  "built-in world at 1x real time: CPU per simulated second and peak RSS per node, goals reached, "
+                  "collisions; where move_base's time goes (one profiled run)"),
     "explore": "frontier exploration (explore.launch, real time)",
     "patrol": "the patrol: 10 rounds x 3 spots, a box dropped on the route twice (real time)",
     "multi_robot": "the multi-robot lesson and the number of robots at >= 1x real time",
@@ -307,6 +310,45 @@ def rows_planning(res):
     return out
 
 
+STACK_CPU_SUM = 0.6  # [CPU s per simulated s] map_server + amcl + move_base while navigating (issue 24)
+
+
+def rows_stack_cpu(res):
+    m, n = res["median"], len(res["runs"])
+    cpu, rss, real = m["cpu_per_sim_s"], m["peak_rss_mb"], res["real_cpu_per_sim_s"]
+    goals = res["goals"]
+    out = [
+        row(f"map_server + amcl + move_base while navigating, {goals} seeded goals on the built-in world at "
+            f"{res['speed']:g}x: CPU s per simulated s, median of {n} runs",
+            f"{cpu['sum']:.3f} s (map_server {cpu['map_server']:.3f}, amcl {cpu['amcl']:.3f}, move_base "
+            f"{cpu['move_base']:.3f}; the simulator beside them {cpu['summit_xl_sim']:.3f}; the issue's reference, "
+            f"the C++ nodes on the same kind of run, not measured here: amcl {real['amcl']:g}, move_base "
+            f"{real['move_base']:g}, sum {real['sum']:g})",
+            {"cpu_per_sim_s": cpu, "runs_sum": [round(r["cpu_per_sim_s"]["sum"], 3) for r in res["runs"]]},
+            f"<= {STACK_CPU_SUM:g} s", cpu["sum"] <= STACK_CPU_SUM),
+        row("... peak RSS per node (median)",
+            ", ".join(f"{k} {rss[k]:.0f} MB" for k in ("map_server", "amcl", "move_base", "summit_xl_sim")),
+            {"peak_rss_mb": rss}),
+        row(f"... goals reached (worst run) / collisions (all runs); simulated time of the run (median)",
+            f"{res['reached_min']} of {goals} / {res['collisions']}; {m['sim_s']:.0f} s",
+            {"reached_min": res["reached_min"], "collisions": res["collisions"], "sim_s": m["sim_s"]},
+            f"{goals} of {goals} / 0", res["reached_min"] == goals and res["collisions"] == 0),
+    ]
+    prof = res.get("profile")
+    if prof:
+        shares = prof.get("profile_shares") or {}
+        out.append(row(f"move_base, one profiled run ({prof['goals']} of the goals): where its time goes, share of "
+                       "its profiled CPU",
+                       ", ".join(f"{k} {v:.0%}" for k, v in sorted(shares.items(), key=lambda kv: -kv[1]) if v >= 0.005),
+                       {"profile_shares": shares}))
+        threads = prof.get("threads") or {}
+        total = sum(threads.values()) or 1.0
+        out.append(row("... move_base's CPU by thread in the profiled run (share)",
+                       ", ".join(f"{k} {v / total:.0%}" for k, v in threads.items() if v / total >= 0.005),
+                       {"threads_cpu_s": threads}))
+    return out
+
+
 EXPLORE_COVERAGE = {"builtin": 0.95, "willow": 0.90}  # explored share of the reachable free area
 EXPLORE_PRECISION, EXPLORE_RECALL = 0.95, 0.90
 
@@ -387,7 +429,7 @@ def rows_e2e(res):
 
 ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_carmen, "slam_bag": rows_slam_bag,
         "slam_sim": rows_slam_sim,
-        "amcl": rows_amcl, "planning": rows_planning, "explore": rows_explore, "patrol": rows_patrol,
+        "amcl": rows_amcl, "planning": rows_planning, "stack_cpu": rows_stack_cpu, "explore": rows_explore, "patrol": rows_patrol,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e}
 
 

@@ -1,13 +1,16 @@
 #!/usr/bin/python3
 """Run a rospy node under cProfile in every thread, counting CPU time (not wall time).
 
-    profile_node.py OUT_PREFIX NODE_SCRIPT [node args...]
+    profile_node.py [--all-threads] OUT_PREFIX NODE_SCRIPT [node args...]
     (as a roslaunch launch-prefix: "/usr/bin/python3 tools/profile_node.py /tmp/amcl")
 
 rospy runs each subscription's receive loop (socket read, deserialization, the user's
 callbacks) in a thread of its own, which `python3 -m cProfile` does not see. Here every
 message received is profiled in its thread, with time.thread_time as the clock, so a
-blocking socket read costs nothing and what is left is the CPU spent per topic. At exit
+blocking socket read costs nothing and what is left is the CPU spent per topic. With
+--all-threads every thread the node starts (threading.Thread: update loops, planner and
+control threads, action servers) is profiled from its start, and read at exit while it
+still runs (calls still in progress then are not counted). At exit
 (roslaunch's SIGINT ends rospy.spin) the node writes:
   OUT_PREFIX.pstats        all threads' profiles merged (pstats.Stats(path))
   OUT_PREFIX.threads.json  {native thread id: topic name} of the receive threads (and
@@ -25,7 +28,21 @@ import threading
 import time
 
 
+class _Snapshot:
+    """A profile's statistics so far, for pstats, without stopping it (a thread still runs)."""
+
+    def __init__(self, prof):
+        prof.snapshot_stats()
+        self.stats = prof.stats
+
+    def create_stats(self):
+        pass
+
+
 def main():
+    all_threads = len(sys.argv) > 1 and sys.argv[1] == "--all-threads"
+    if all_threads:
+        del sys.argv[1]
     if len(sys.argv) < 3:
         sys.exit(__doc__)
     out_prefix, script = sys.argv[1], sys.argv[2]
@@ -68,6 +85,25 @@ def main():
         return orig_loop(self, msgs_callback)
 
     tcpros_base.TCPROSTransport.receive_loop = receive_loop
+    if all_threads:
+        # Threads the node starts itself (a costmap's update loop, a planner or control
+        # thread, an action server's execute thread) are profiled for their whole life;
+        # the dump reads them while they still run.
+        orig_run = threading.Thread.run
+
+        def run(self):
+            names[threading.get_native_id()] = f"{type(self).__name__} {self.name}"  # a receive loop renames it
+            prof = profiler()
+            local.state["whole_thread"] = True
+            local.state["active"] = True
+            prof.enable()
+            try:
+                return orig_run(self)
+            finally:
+                prof.disable()
+                local.state["active"] = False
+
+        threading.Thread.run = run
     tcpros_base.TCPROSTransport.receive_once = profiled(tcpros_base.TCPROSTransport.receive_once)
     topics._SubscriberImpl.receive_callback = profiled(topics._SubscriberImpl.receive_callback)
 
@@ -76,9 +112,13 @@ def main():
         time.sleep(0.2)  # let calls in flight finish
         with lock:
             done = [p for p, st in profiles if not st["active"]]
+            running = [p for p, st in profiles if st["active"] and st.get("whole_thread")]
         stats = None
-        for p in done:
-            p.create_stats()
+        for p in done + running:
+            if p in running:
+                p = _Snapshot(p)
+            else:
+                p.create_stats()
             if not p.stats:
                 continue
             stats = pstats.Stats(p) if stats is None else stats.add(p)
