@@ -10,9 +10,7 @@ its own occupancy grid (grid.PatchGrid, shared copy-on-write). Per laser scan:
   2. only if the robot moved linearUpdate [m] or turned angularUpdate [rad] since the
      last processed scan (or temporalUpdate [s] passed), go on:
   3. scan-match each particle against its own map (scan_matcher.optimize) - the improved
-     proposal; keep the odometry pose if the score is <= minimumScore or the correction
-     is implausible under the motion model (plausible_corrections). A beam is matched
-     only to obstacle cells it can reach through known free space (DIRECTIONAL_MATCH);
+     proposal; keep the odometry pose if the score is <= minimumScore;
   4. add the scan's log-likelihood at the new pose to the particle's log weight;
   5. normalize: w_i ~ exp((l_i - l_max) / (ogain * N)); Neff = 1 / sum(w_i^2);
   6. if Neff < resampleThreshold * N: low-variance resampling (maps shared, log weights
@@ -27,15 +25,10 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from . import motion_model, scan_matcher
-from .grid import PATCH_BYTES, PatchGrid
+from .grid import PATCH_BYTES, PatchGrid, PatchPool
 from .slam_config import SlamConfig
 
 RANGE_MAX_MARGIN = 0.01  # slam_gmapping's default maxRange = scan range_max - this [m]
-MATCH_GATE_SIGMAS = 5.0  # a scan-match correction beyond this many motion-model stds is rejected [-]
-MATCH_CHUNK_CELLS = 4_000_000  # field cells matched at once (8 per window cell when directional);
-                               # 8 bytes each -> <= 32 MB of fields [cells]
-DIRECTIONAL_MATCH = True       # match a beam only to obstacle cells it reaches through known free space
-                               # (scan_matcher.facing_masks; False: gmapping's plain endpoint fields)
 
 
 def low_variance_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -51,33 +44,6 @@ def low_variance_resample(weights: np.ndarray, rng: np.random.Generator) -> np.n
     cumulative /= cumulative[-1]
     pointers = (rng.random() + np.arange(n)) / n
     return np.minimum(np.searchsorted(cumulative, pointers, side="right"), n - 1)
-
-
-def plausible_corrections(predicted: np.ndarray, matched: np.ndarray, std: np.ndarray,
-                          min_gate: Tuple[float, float]) -> np.ndarray:
-    """(n,) bool: is each scan-matched pose (n, 3) within MATCH_GATE_SIGMAS motion-model
-    stds of the particle's predicted pose (n, 3)?
-
-    The improved proposal is p(z | m, x) p(x | x', u) (Grisetti et al. 2007, sec. IV):
-    the scan match's mode is a good proposal only where the motion model allows it. In a
-    corridor whose end is out of range the score is flat along it, and the hill climbing
-    can walk 20 cm on noise in one update, 18 stds of the Summit's odometry (a live tour
-    whose SLAM node, busy, used every few scans only: ATE 0.073 m with this drift, 0.005
-    m without). Such a correction is refused and the particle keeps its odometry sample, as
-    gmapping does for a score below minimumScore.
-
-    std (3,): the motion model's std [m, m, rad] of the odometry increment since the last
-    processed scan (motion_model.noise_std), per axis of the predicted pose's frame.
-    min_gate: (lstep [m], astep [rad]): a correction within the matcher's first step is
-    always allowed (the gate never shrinks below what one hill-climbing move does).
-    """
-    gate = np.maximum(MATCH_GATE_SIGMAS * np.asarray(std, float),
-                      [min_gate[0], min_gate[0], min_gate[1]])
-    d = matched - predicted
-    cos, sin = np.cos(predicted[:, 2]), np.sin(predicted[:, 2])
-    local = np.column_stack((cos * d[:, 0] + sin * d[:, 1], -sin * d[:, 0] + cos * d[:, 1],
-                             np.arctan2(np.sin(d[:, 2]), np.cos(d[:, 2]))))
-    return np.all(np.abs(local) <= gate, axis=1)
 
 
 def normalized_weights(log_weights: np.ndarray, ogain: float) -> Tuple[np.ndarray, float]:
@@ -176,7 +142,7 @@ class RbpfSlam:
     def _initialize(self, odom, r, a, laser, max_range, timestamp):
         """First scan: all particles at the odometry pose, sharing the scan's map."""
         self.poses[:] = odom
-        first = PatchGrid(self.config.delta)
+        first = PatchGrid(self.config.delta, PatchPool())
         lp = scan_matcher.laser_poses(odom[None, :], laser)[0]
         first.integrate_scan(lp, r, a, self.config.maxUrange, max_range)
         self.maps = [first] + [first.copy() for _ in range(self.config.particles - 1)]
@@ -225,48 +191,19 @@ class RbpfSlam:
         self.update_count += 1
 
     def _scan_match(self, beams, laser):
-        """Steps 3-4: improve each particle's pose by scan matching, weight it.
-
-        Particles are matched in lockstep in chunks whose field windows hold at most
-        MATCH_CHUNK_CELLS cells, which bounds the fields' memory.
-        """
+        """Steps 3-4: improve each particle's pose by scan matching, weight it (gmapping's
+        GridSlamProcessor::scanMatch): the matched pose is taken when its score is above
+        minimumScore; the log-likelihood at the pose taken is added to the weights."""
         c = self.config
-        start = scan_matcher.endpoints(self.poses, laser, beams.local_xy)  # (N, K, 2)
-        octants = (scan_matcher.beam_octants(self.poses, laser, beams.angles)
-                   if DIRECTIONAL_MATCH else None)   # (N, K), fixed for this update
-        for chunk in self._match_chunks(start):
-            fields = scan_matcher.build_fields([self.maps[i] for i in chunk], start[chunk],
-                                               c.sigma, c.lsigma, c.kernelSize,
-                                               directional=DIRECTIONAL_MATCH)
-            octs = None if octants is None else octants[chunk]
-            matched, scores = scan_matcher.optimize(fields, self.poses[chunk], laser, beams,
-                                                    c.lstep, c.astep, c.iterations, octs)
-            good = (scores > c.minimumScore) & self._plausible(self.poses[chunk], matched)
-            self.poses[chunk[good]] = matched[good]
-            loglik, _ = scan_matcher.likelihood_and_score(fields, self.poses[chunk], laser, beams, octs)
-            self.log_weights[chunk] += loglik
-            self.log_weight_sums[chunk] += loglik
-
-    def _plausible(self, predicted, matched):
-        """(n,) bool: may each particle take its scan-matched pose (plausible_corrections)?"""
-        c = self.config
-        inc = motion_model.odometry_increment(self._update_odom, self._last_odom)
-        std = motion_model.noise_std(inc, c.srr, c.srt, c.str, c.stt)
-        return plausible_corrections(predicted, matched, std, (c.lstep, c.astep))
-
-    def _match_chunks(self, start):
-        """Split particle indices into chunks of at most MATCH_CHUNK_CELLS window cells."""
-        chunks, current, cells = [], [], 0
-        for i in range(self.config.particles):
-            _, _, width, height = scan_matcher.field_window(start[i], self.config.delta)
-            size = width * height * (scan_matcher.OCTANTS if DIRECTIONAL_MATCH else 1)
-            if current and cells + size > MATCH_CHUNK_CELLS:
-                chunks.append(np.array(current))
-                current, cells = [], 0
-            current.append(i)
-            cells += size
-        chunks.append(np.array(current))
-        return chunks
+        tables = scan_matcher.map_tables(self.maps)
+        matched, scores = scan_matcher.optimize(tables, self.poses, laser, beams, c.sigma, c.kernelSize,
+                                                c.lstep, c.astep, c.iterations)
+        good = scores > c.minimumScore
+        self.poses[good] = matched[good]
+        loglik, _ = scan_matcher.likelihood_and_score(tables, self.poses, laser, beams, c.sigma, c.lsigma,
+                                                      c.kernelSize)
+        self.log_weights += loglik
+        self.log_weight_sums += loglik
 
     def _resample(self, parents):
         """Step 6: copy the chosen particles; maps are shared copy-on-write."""
