@@ -150,11 +150,11 @@ def _beam_sums(store, py0, px0, rows, cols, offset, slots, i, pose, laser, bx, b
                     continue
                 r = cy & (PATCH_CELLS - 1)
                 q = cx & (PATCH_CELLS - 1)
-                hits = store[slot, HITS, r, q]
-                visits = store[slot, VISITS, r, q]
+                hits = np.float64(store[slot, HITS, r, q])
+                visits = np.float64(store[slot, VISITS, r, q])
                 if visits > 0.0 and hits > FULLNESS_THRESHOLD * visits:
-                    mx = cx * res + store[slot, SUM_X, r, q] / hits - ex
-                    my = cy * res + store[slot, SUM_Y, r, q] / hits - ey
+                    mx = cx * res + np.float64(store[slot, SUM_X, r, q]) / hits - ex
+                    my = cy * res + np.float64(store[slot, SUM_Y, r, q]) / hits - ey
                     d2 = mx * mx + my * my
                     if best < 0.0 or d2 < best:
                         best = d2
