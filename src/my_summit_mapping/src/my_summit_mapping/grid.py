@@ -263,6 +263,28 @@ class PatchGrid:
         _trace_into(self.pool.store, table, py0, px0, cols, start, end_cells, ends, is_hit, res,
                     float(COUNT_LIMIT))
 
+    def add_hits(self, laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarray,
+                 max_urange: float, max_range: float) -> None:
+        """Mark only the end cells of one scan's returned beams (a hit, a visit and the end
+        point each), nothing along the beams: gmapping's registerScan with generateMap
+        false, how slam_gmapping builds its particles' maps. A beam is used when 0 < r <=
+        max_urange and r <= max_range.
+        """
+        laser_pose = np.asarray(laser_pose, float)
+        r = np.asarray(ranges, float)
+        with np.errstate(invalid="ignore"):
+            used = (r > 0.0) & (r <= max_urange) & (r <= max_range)
+        if not used.any():
+            return
+        a = laser_pose[2] + np.asarray(angles, float)[used]
+        ends = np.column_stack((laser_pose[0] + r[used] * np.cos(a), laser_pose[1] + r[used] * np.sin(a)))
+        cells = np.floor(ends / self.resolution).astype(np.int64)
+        for py, px in np.unique(cells[:, ::-1] >> PATCH_SHIFT, axis=0):
+            self._writable_slot((int(py), int(px)))
+        py0, px0, rows, cols, table = self.patch_table()
+        _add_hits_into(self.pool.store, table, py0, px0, cols, cells, ends, self.resolution,
+                       float(COUNT_LIMIT))
+
     # ------------------------------------------------------------------ output
     def occupancy_grid(self, occ_thresh: float,
                        extent: Optional[Tuple[float, float, float, float]] = None):
@@ -537,3 +559,18 @@ def _trace_into(store, table, py0, px0, cols, start, end_cells, ends, is_hit, re
                 store[slot, HITS, r, c] += 1.0
                 store[slot, SUM_X, r, c] += ends[b, 0] - x * resolution
                 store[slot, SUM_Y, r, c] += ends[b, 1] - y * resolution
+
+
+@njit(cache=True)
+def _add_hits_into(store, table, py0, px0, cols, cells, ends, resolution, count_limit):
+    """PatchGrid.add_hits' counting, straight into the pool's (writable) patches."""
+    for b in range(cells.shape[0]):
+        x, y = cells[b, 0], cells[b, 1]
+        slot = table[((y >> PATCH_SHIFT) - py0) * cols + (x >> PATCH_SHIFT) - px0]
+        r, c = y & (PATCH_CELLS - 1), x & (PATCH_CELLS - 1)
+        if store[slot, VISITS, r, c] + 1.0 > count_limit:
+            store[slot] *= 0.5
+        store[slot, VISITS, r, c] += 1.0
+        store[slot, HITS, r, c] += 1.0
+        store[slot, SUM_X, r, c] += ends[b, 0] - x * resolution
+        store[slot, SUM_Y, r, c] += ends[b, 1] - y * resolution

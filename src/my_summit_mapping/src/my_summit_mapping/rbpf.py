@@ -15,7 +15,10 @@ its own occupancy grid (grid.PatchGrid, shared copy-on-write). Per laser scan:
   5. normalize: w_i ~ exp((l_i - l_max) / (ogain * N)); Neff = 1 / sum(w_i^2);
   6. if Neff < resampleThreshold * N: low-variance resampling (maps shared, log weights
      reset to 0);
-  7. ray-trace the scan into each particle's map at its pose.
+  7. add the scan's end points to each particle's map at its pose (slam_gmapping runs
+     gmapping with generateMap false: no ray tracing in the particles' maps).
+The published map (occupancy_grid) ray-traces every processed scan from the best
+particle's ancestry, as slam_gmapping's updateMap does.
 The best particle is the one with the largest cumulative log-likelihood (gmapping's
 weightSum); its map is the published map, its ancestry the trajectory.
 """
@@ -83,6 +86,9 @@ class RbpfSlam:
         self._hist_poses: List[np.ndarray] = []       # per processed scan: poses before resampling
         self._hist_parents: List[np.ndarray] = []     # per processed scan: resampling indices
         self._hist_times: List[float] = []
+        self._hist_scans: List[tuple] = []           # per processed scan: (ranges, angles, laser, maxRange)
+        self._render_base: Optional[PatchGrid] = None  # ray-traced map of the particles' common past
+        self._render_upto = -1                        # ... up to this processed scan
 
     # ------------------------------------------------------------------ input
     def process(self, odom_pose: Sequence[float], ranges: Sequence[float],
@@ -144,12 +150,12 @@ class RbpfSlam:
         self.poses[:] = odom
         first = PatchGrid(self.config.delta, PatchPool())
         lp = scan_matcher.laser_poses(odom[None, :], laser)[0]
-        first.integrate_scan(lp, r, a, self.config.maxUrange, max_range)
+        first.add_hits(lp, r, a, self.config.maxUrange, max_range)
         self.maps = [first] + [first.copy() for _ in range(self.config.particles - 1)]
         self._last_odom = odom
         self._update_odom = odom
         self._last_update_time = timestamp
-        self._record(np.arange(self.config.particles), timestamp)
+        self._record(np.arange(self.config.particles), timestamp, (r, a, laser, max_range))
         self.update_count = 1
 
     def _predict(self, odom):
@@ -180,7 +186,7 @@ class RbpfSlam:
         resample = self.neff < c.resampleThreshold * c.particles   # step 6
         if resample:
             parents = low_variance_resample(self.weights, self.rng)
-        self._record(parents, timestamp)   # poses before resampling + who survives
+        self._record(parents, timestamp, (r, a, laser, max_range))   # poses before resampling + who survives
         if resample:
             self._resample(parents)
         self._integrate(r, a, laser, max_range, parents)     # step 7
@@ -215,10 +221,12 @@ class RbpfSlam:
         self.resample_count += 1
 
     def _integrate(self, r, a, laser, max_range, parents):
-        """Step 7: ray-trace the scan into every particle's map.
+        """Step 7: add the scan's hit points to every particle's map (slam_gmapping runs
+        gmapping with generateMap false: the particles' maps hold end points only; the
+        published map is ray-traced separately, occupancy_grid).
 
         Children of one parent have the same pose and map right after resampling, so
-        the scan is traced once per parent and the children share the result.
+        the scan is added once per parent and the children share the result.
         """
         c = self.config
         lps = scan_matcher.laser_poses(self.poses, laser)
@@ -228,13 +236,15 @@ class RbpfSlam:
                 self.maps[i] = done[p].copy()
                 continue
             grid = self.maps[i]
-            grid.integrate_scan(lps[i], r, a, c.maxUrange, max_range)
+            grid.add_hits(lps[i], r, a, c.maxUrange, max_range)
             done[p] = grid
 
-    def _record(self, parents, timestamp):
+    def _record(self, parents, timestamp, scan):
         self._hist_poses.append(self.poses.copy())
         self._hist_parents.append(np.asarray(parents).copy())
         self._hist_times.append(np.nan if timestamp is None else float(timestamp))
+        r, a, laser, max_range = scan
+        self._hist_scans.append((r.copy(), a.copy(), laser.copy(), max_range))
 
     # ---------------------------------------------------------------- output
     def best_particle(self) -> int:
@@ -268,26 +278,65 @@ class RbpfSlam:
         return np.array(self._hist_times)
 
     def _ancestry(self, index: int) -> np.ndarray:
-        out = np.empty((len(self._hist_poses), 3))
+        rows = self._lineage(index)
+        return np.array([self._hist_poses[k][i] for k, i in enumerate(rows)]).reshape(-1, 3)
+
+    def _lineage(self, index: int) -> np.ndarray:
+        """Row (K,) of each processed scan's recorded poses on particle index's ancestry."""
+        rows = np.empty(len(self._hist_poses), np.intp)
         i = index
         for k in range(len(self._hist_poses) - 1, -1, -1):
             i = int(self._hist_parents[k][i])
-            out[k] = self._hist_poses[k][i]
-        return out
+            rows[k] = i
+        return rows
+
+    def _common_past(self) -> int:
+        """The last processed scan whose pose all particles' ancestries share (-1: none)."""
+        rows = np.arange(self.config.particles)
+        for k in range(len(self._hist_poses) - 1, -1, -1):
+            rows = self._hist_parents[k][rows]
+            if np.all(rows == rows[0]):
+                return k
+        return -1
+
+    def _trace_history(self, grid: PatchGrid, k: int, row: int) -> None:
+        r, a, laser, max_range = self._hist_scans[k]
+        lp = scan_matcher.laser_poses(self._hist_poses[k][row][None, :], laser)[0]
+        grid.integrate_scan(lp, r, a, self.config.maxUrange, max_range)
+
+    def best_map(self) -> Optional[PatchGrid]:
+        """The map slam_gmapping publishes: every processed scan ray-traced (free cells,
+        hits) from the best particle's ancestry (gmapping's updateMap, generateMap true).
+
+        The part of the past that all particles share cannot change any more; it is
+        traced once and kept (_render_base), only the best lineage's own recent scans
+        are traced on a copy of it each time."""
+        if not self._hist_poses:
+            return None
+        rows = self._lineage(self.best_particle())
+        if self._render_base is None:
+            self._render_base = PatchGrid(self.config.delta, PatchPool())
+        for k in range(self._render_upto + 1, self._common_past() + 1):
+            self._trace_history(self._render_base, k, rows[k])
+            self._render_upto = k
+        grid = self._render_base.copy()
+        for k in range(self._render_upto + 1, len(rows)):
+            self._trace_history(grid, k, rows[k])
+        return grid
 
     def occupancy_grid(self):
-        """The best particle's map as ROS OccupancyGrid content.
+        """The best particle's map (best_map) as ROS OccupancyGrid content.
 
         Returns (data int8 (height*width,) row-major from the lower-left cell, width,
         height, resolution [m], origin_x [m], origin_y [m]); -1 unknown, 0 free, 100
         occupied (occupancy > occ_thresh). Covers at least xmin..xmax, ymin..ymax and
         grows with the explored area. None before any scan.
         """
-        if not self.maps:
+        grid = self.best_map()
+        if grid is None:
             return None
         c = self.config
-        return self.maps[self.best_particle()].occupancy_grid(
-            c.occ_thresh, extent=(c.xmin, c.ymin, c.xmax, c.ymax))
+        return grid.occupancy_grid(c.occ_thresh, extent=(c.xmin, c.ymin, c.xmax, c.ymax))
 
     def entropy(self) -> float:
         """Entropy [nat] of the normalized particle weights (published on ~entropy)."""
