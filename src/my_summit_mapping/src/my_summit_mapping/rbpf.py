@@ -57,6 +57,17 @@ def normalized_weights(log_weights: np.ndarray, ogain: float) -> Tuple[np.ndarra
     return w, 1.0 / float(np.sum(w * w))
 
 
+def warm_up() -> None:
+    """Run every compiled kernel once on a tiny case, so that a node pays numba's
+    compilation (or cache load) before its first scan, not during it."""
+    angles = np.linspace(-1.5, 1.5, 8)
+    slam = RbpfSlam(SlamConfig(particles=2, xmin=-1.0, ymin=-1.0, xmax=1.0, ymax=1.0),
+                    np.random.default_rng(0))
+    for k in range(3):
+        slam.process((0.6 * k, 0.0, 0.0), np.full(angles.shape, 2.0), angles, timestamp=float(k))
+    slam.occupancy_grid()
+
+
 class RbpfSlam:
     """gmapping-style RBPF SLAM core.
 
