@@ -189,3 +189,17 @@ def test_pool_slots_are_reused_when_maps_are_dropped():
     assert pool.used() == used                       # released when dropped
     g.release()
     assert pool.used() == 0 and g.patch_count() == 0
+
+
+def test_add_hits_marks_end_cells_only():
+    """gmapping's registerScan without generateMap: a hit (and its point) in each end
+    cell, nothing along the beam; beyond maxUrange or maxRange, +inf, NaN: skipped."""
+    g = G.PatchGrid(RES)
+    laser = np.array([0.01, 0.01, 0.0])
+    g.add_hits(laser, np.array([1.002, 1.022, 12.0, np.inf, np.nan, 0.0]), np.zeros(6), 10.0, 30.0)
+    hits, visits = g.read_window(-300, -300, 600, 600)
+    assert hits.sum() == 2 and visits.sum() == 2
+    assert g.read_window(20, 0, 1, 1)[0][0, 0] == 2
+    assert g.mean_hit(20, 0) == pytest.approx((1.022, 0.01), abs=1e-6)
+    g.add_hits(laser, np.array([10.0]), np.zeros(1), 10.0, 30.0)    # r == maxUrange: used
+    assert g.read_window(-300, -300, 600, 600)[0].sum() == 3

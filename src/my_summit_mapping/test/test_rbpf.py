@@ -6,7 +6,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from my_summit_mapping import carmen, metrics
-from my_summit_mapping.grid import OCCUPIED
+from my_summit_mapping.grid import OCCUPIED, PatchGrid
 from my_summit_mapping import rbpf as rbpf_module
 from my_summit_mapping.rbpf import RbpfSlam, low_variance_resample, normalized_weights
 from my_summit_mapping.slam_config import SlamConfig
@@ -112,6 +112,35 @@ def test_resampling_keeps_state_consistent():
     # room here), never stale copies: memory <= N maps (sharing itself: test_grid)
     one = slam.maps[0].nbytes()
     assert one <= slam.map_memory_bytes() <= 8 * one
+
+
+def _traced_lineage(slam, index):
+    """The best map's oracle: every processed scan of particle index's ancestry ray-traced
+    into a fresh grid, from the start."""
+    ref = PatchGrid(slam.config.delta)
+    for (x, y, th), (r, a, laser, max_range) in zip(slam._ancestry(index), slam._hist_scans):
+        lp = (x + math.cos(th) * laser[0], y + math.sin(th) * laser[0], th)
+        ref.integrate_scan(np.array(lp), r, a, slam.config.maxUrange, max_range)
+    return ref
+
+
+def test_published_map_traces_the_best_lineage_and_particle_maps_hold_end_points():
+    truth = _loop_path()[:60]
+    odom = carmen.make_drifted_odometry(truth, np.random.default_rng(10), 0.2, 0.05, 0.2, 0.2)
+    slam = RbpfSlam(_config(resampleThreshold=1.0), np.random.default_rng(12))
+    _drive(slam, truth[:30], odom[:30])
+    slam.best_map()                                   # traces the common past once ...
+    _drive(slam, truth[30:], odom[30:])               # ... which keeps growing
+    grid = slam.best_map()
+    assert slam.resample_count > 0 and 0 < slam._render_upto < slam.update_count - 1
+    ref = _traced_lineage(slam, slam.best_particle())
+    ix0, iy0, ix1, iy1 = ref.bounds()
+    assert grid.bounds() == ref.bounds()
+    assert_allclose(grid.read_layers(ix0, iy0, ix1 - ix0, iy1 - iy0),
+                    ref.read_layers(ix0, iy0, ix1 - ix0, iy1 - iy0), rtol=1e-5, atol=1e-4)
+    # a particle's own map: hits only (every visited cell is a hit), no free cells
+    hits, visits = slam.maps[0].read_window(ix0, iy0, ix1 - ix0, iy1 - iy0)
+    assert visits.sum() > 0 and np.array_equal(hits, visits)
 
 
 def test_gating_and_temporal_update():
