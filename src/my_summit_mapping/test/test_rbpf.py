@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from my_summit_mapping import carmen, metrics
+from my_summit_mapping import carmen, metrics, scan_matcher
 from my_summit_mapping.grid import OCCUPIED, PatchGrid
 from my_summit_mapping import rbpf as rbpf_module
 from my_summit_mapping.rbpf import RbpfSlam, low_variance_resample, normalized_weights
@@ -118,16 +118,16 @@ def _traced_lineage(slam, index):
     """The best map's oracle: every processed scan of particle index's ancestry ray-traced
     into a fresh grid, from the start."""
     ref = PatchGrid(slam.config.delta)
-    for (x, y, th), (r, a, laser, max_range) in zip(slam._ancestry(index), slam._hist_scans):
-        lp = (x + math.cos(th) * laser[0], y + math.sin(th) * laser[0], th)
-        ref.integrate_scan(np.array(lp), r, a, slam.config.maxUrange, max_range)
+    for pose, (r, a, laser, max_range) in zip(slam._ancestry(index), slam._hist_scans):
+        lp = scan_matcher.laser_poses(pose[None, :], laser)[0]   # the same float operations
+        ref.integrate_scan(lp, r, a, slam.config.maxUrange, max_range)
     return ref
 
 
 def test_published_map_traces_the_best_lineage_and_particle_maps_hold_end_points():
     truth = _loop_path()[:60]
     odom = carmen.make_drifted_odometry(truth, np.random.default_rng(10), 0.2, 0.05, 0.2, 0.2)
-    slam = RbpfSlam(_config(resampleThreshold=1.0), np.random.default_rng(12))
+    slam = RbpfSlam(_config(resampleThreshold=1.0, ogain=0.05), np.random.default_rng(12))  # lineages merge
     _drive(slam, truth[:30], odom[:30])
     slam.best_map()                                   # traces the common past once ...
     _drive(slam, truth[30:], odom[30:])               # ... which keeps growing
