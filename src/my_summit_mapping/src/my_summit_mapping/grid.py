@@ -1,13 +1,15 @@
-"""Copy-on-write patched occupancy grid (gmapping's ScanMatcherMap, in numpy).
+"""Copy-on-write patched occupancy grid (gmapping's ScanMatcherMap), compiled with numba.
 
 Reference: Grisetti, Stachniss, Burgard 2007, "Improved Techniques for Grid Mapping with
 Rao-Blackwellized Particle Filters", IEEE T-RO 23(1); GMapping's HierarchicalArray2D
 (grid/harray2d.h: patches allocated on demand, shared between particles through
 reference-counted pointers) and PointAccumulator (grid/map.h: a cell's occupancy is
-hits / visits, the "frequency" model). Ray tracing as in ScanMatcher::registerScan:
+hits / visits, the "frequency" model). Ray tracing (integrate_scan) as in
+ScanMatcher::registerScan with generateMap true (the published map):
 every beam is traced on its own with a Bresenham line (GridLineTraversal) from the
 laser's cell to the end cell; each cell before the end gets one visit, the end cell of a
-beam that returned gets one hit and one visit.
+beam that returned gets one hit and one visit. `add_hits` is registerScan with
+generateMap false (the particles' maps, as slam_gmapping runs gmapping): end cells only.
 
 Each cell also sums the points where beams ended in it (PointAccumulator's acc), so the
 scan matcher can measure a beam's distance to the cell's mean hit point, not to its

@@ -91,7 +91,6 @@ class RbpfSlam:
         self._n_beams: Optional[int] = None
         self._last_odom: Optional[np.ndarray] = None
         self._last_update_time: Optional[float] = None
-        self._update_odom: Optional[np.ndarray] = None  # odometry pose at the last processed scan
         self._linear_distance = 0.0                   # since the last processed scan [m]
         self._angular_distance = 0.0                  # since the last processed scan [rad]
         self._hist_poses: List[np.ndarray] = []       # per processed scan: poses before resampling
@@ -164,7 +163,6 @@ class RbpfSlam:
         first.add_hits(lp, r, a, self.config.maxUrange, max_range)
         self.maps = [first] + [first.copy() for _ in range(self.config.particles - 1)]
         self._last_odom = odom
-        self._update_odom = odom
         self._last_update_time = timestamp
         self._record(np.arange(self.config.particles), timestamp, (r, a, laser, max_range))
         self.update_count = 1
@@ -204,7 +202,6 @@ class RbpfSlam:
         self._linear_distance = 0.0
         self._angular_distance = 0.0
         self._last_update_time = timestamp
-        self._update_odom = self._last_odom
         self.update_count += 1
 
     def _scan_match(self, beams, laser):
