@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """Benchmark of the path-planning core (no ROS): NavFn, GlobalPlanner, one DWA cycle, closed loop.
 
-1. NavFn, and global_planner/GlobalPlanner (default parameters) with Dijkstra and with
-   A*, on willow-full-0.05 between the same far-apart free cells: median plan time over
-   seeded pairs, and the path length against the exact 8-connected grid geodesic (for
-   GlobalPlanner also with cost_factor 0.01: the path geometry alone).
+1. NavFn, and global_planner/GlobalPlanner (default parameters but the course's NavfnROS
+   allow_unknown and default_tolerance, as NavFn has them: both plan over the cells the
+   geodesic counts) with Dijkstra and with A*, on willow-full-0.05 between the same
+   far-apart free cells: median plan time over seeded pairs, and the path length against
+   the exact 8-connected grid geodesic (for GlobalPlanner also with neutral_cost 255,
+   every passable cell weighing the same: the path geometry alone).
 2. One DWA control cycle (the course's sample counts) on a local costmap: median time.
 3. Closed loop in summit_xl_sim.sim.Simulation with ground-truth pose: global costmap
    (static + obstacle + inflation) + a global planner (replanning at planner_frequency)
@@ -159,17 +161,20 @@ def bench_navfn(params, n_pairs, seed=0, cm=None, pairs=None):
     return bench_plans(NavFn(params.navfn), cm, pairs, "NavFn")
 
 
-def bench_global_planner(use_dijkstra, cm, pairs):
-    """global_planner/GlobalPlanner with its default parameters (A* when not use_dijkstra),
-    plus the same plans with cost_factor 0.01 (the path geometry without the costs)."""
-    planner = GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra))
+def bench_global_planner(use_dijkstra, cm, pairs, course=None):
+    """global_planner/GlobalPlanner with its default parameters (A* when not use_dijkstra)
+    but course's (a dict: the course's COURSE_GLOBAL_PARAMS), plus the same plans with
+    neutral_cost 255 (every passable cell then costs lethal_cost - 1: the path geometry
+    without the costs)."""
+    course = dict(course or {})
+    planner = GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra, **course))
     out = bench_plans(planner, cm, pairs, "GlobalPlanner")
     cells = []
     for a, b, _ in pairs:
         planner.make_plan(cm, cm.map_to_world(a[1], a[0]), cm.map_to_world(b[1], b[0]))
         cells.append(planner.cells_expanded)
     out["cells_expanded_median"] = float(np.median(cells))
-    geometric = bench_plans(GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra, cost_factor=0.01)),
+    geometric = bench_plans(GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra, neutral_cost=255, **course)),
                             cm, pairs, "GlobalPlanner")
     out["geometric_length_ratio_median"] = geometric["length_ratio_median"]
     out["geometric_length_ratio_max"] = geometric["length_ratio_max"]
@@ -443,10 +448,11 @@ def main(argv=None):
         pairs = far_pairs(cm, args.navfn_pairs, args.seed)
         repeats = max(1, args.repeats)
         navs, dijs, astars = [], [], []
+        course = {k: v for k, v in params.namespace("NavfnROS").items() if k in COURSE_GLOBAL_PARAMS}
         for _ in range(repeats):  # interleaved, so that each planner sees the same load
             navs.append(bench_navfn(params, args.navfn_pairs, cm=cm, pairs=pairs))
-            dijs.append(bench_global_planner(True, cm, pairs))
-            astars.append(bench_global_planner(False, cm, pairs))
+            dijs.append(bench_global_planner(True, cm, pairs, course))
+            astars.append(bench_global_planner(False, cm, pairs, course))
         for key, runs, name in (("navfn_willow", navs, "NavFn"),
                                 ("global_planner_dijkstra_willow", dijs, "GlobalPlanner Dijkstra"),
                                 ("global_planner_astar_willow", astars, "GlobalPlanner A*")):
@@ -457,7 +463,7 @@ def main(argv=None):
             n["cpu_median_ms"] = float(np.median([r["cpu_median_ms"] for r in runs]))
             out[key] = n
             extra = "" if "cells_expanded_median" not in n else \
-                (f"; {n['cells_expanded_median']:.0f} cells expanded (median); with cost_factor 0.01: path / "
+                (f"; {n['cells_expanded_median']:.0f} cells expanded (median); with neutral_cost 255: path / "
                  f"geodesic median {n['geometric_length_ratio_median']:.3f}, max {n['geometric_length_ratio_max']:.3f}")
             print(f"{name} willow-full-0.05: median {n['median_ms']:.0f} ms wall, {n['cpu_median_ms']:.0f} ms CPU "
                   f"(repeats {n['repeats_median_ms']}; "
