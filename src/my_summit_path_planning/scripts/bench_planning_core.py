@@ -24,9 +24,11 @@
                       trajectory     base_local_planner/TrajectoryPlannerROS, dwa false
                       trajectory-dwa base_local_planner/TrajectoryPlannerROS, dwa true
    GlobalPlanner gets the course's NavfnROS allow_unknown and default_tolerance, its other
-   parameters default; TrajectoryPlannerROS is configured as the course's
-   navigation_stage lesson (TRAJECTORY_PARAMS). --matrix runs every combination over the
-   same pairs and prints a table; each combination is one JSON key (combination_key).
+   parameters default; the local planners run with the config's namespaces
+   (TrajectoryPlannerROS: base_local_planner_params.yaml, the navigation_stage lesson's
+   values with the Summit's turning limits and the planner's sim_time), the dwa flag from
+   the option. --matrix runs every combination over the same pairs and prints a table;
+   each combination is one JSON key (combination_key).
 
 Parameters come from the package's config/*.yaml. Usage:
   bench_planning_core.py [--runs 50] [--willow-runs 20] [--repeats 3] [--json PATH]
@@ -68,17 +70,6 @@ MIN_PAIR_DIST = 2.0       # [m] closed-loop start-goal distance at least
 FAR_PAIR_DIST = 25.0      # [m] NavFn benchmark pairs at least this far apart
 TIME_LIMIT_FACTOR = 6.0   # a run fails after this x optimal time ...
 TIME_LIMIT_MIN = 40.0     # ... but never before this [s] of simulated time
-# TrajectoryPlannerROS as navigation_tutorials' navigation_stage/move_base_config/
-# base_local_planner_params.yaml sets it (the course's multi-robot lesson), deprecated
-# names and all, but holonomic_robot false: the simulated Summit XL drives as a diff
-# drive unless told otherwise. dwa comes from --local-planner.
-TRAJECTORY_PARAMS = {
-    "acc_lim_th": 3.2, "acc_lim_x": 2.5, "acc_lim_y": 2.5, "max_vel_x": 0.65, "min_vel_x": 0.1,
-    "max_rotational_vel": 1.0, "min_in_place_rotational_vel": 0.4, "backup_vel": -0.1,
-    "holonomic_robot": False, "y_vels": [-0.3, -0.1, 0.1, -0.3], "xy_goal_tolerance": 0.1,
-    "yaw_goal_tolerance": 0.05, "sim_time": 1.7, "sim_granularity": 0.025, "vx_samples": 3,
-    "vtheta_samples": 20, "goal_distance_bias": 0.8, "path_distance_bias": 0.6, "occdist_scale": 0.01,
-    "heading_lookahead": 0.325, "oscillation_reset_dist": 0.05, "prune_plan": True}
 # The closed loop's planners: option -> (move_base type string, its namespace's parameters
 # over the config's). GlobalPlanner also gets COURSE_GLOBAL_PARAMS from the config's NavfnROS.
 GLOBAL_KINDS = {
@@ -87,10 +78,10 @@ GLOBAL_KINDS = {
     "dijkstra": ("global_planner/GlobalPlanner", {"use_dijkstra": True}),
 }
 COURSE_GLOBAL_PARAMS = ("allow_unknown", "default_tolerance")  # the course's choices for any global planner
-LOCAL_KINDS = {
+LOCAL_KINDS = {   # each with the config's namespace (TrajectoryPlannerROS: base_local_planner_params.yaml)
     "dwa": ("dwa_local_planner/DWAPlannerROS", {}),
-    "trajectory": ("base_local_planner/TrajectoryPlannerROS", dict(TRAJECTORY_PARAMS, dwa=False)),
-    "trajectory-dwa": ("base_local_planner/TrajectoryPlannerROS", dict(TRAJECTORY_PARAMS, dwa=True)),
+    "trajectory": ("base_local_planner/TrajectoryPlannerROS", {"dwa": False}),
+    "trajectory-dwa": ("base_local_planner/TrajectoryPlannerROS", {"dwa": True}),
 }
 GLOBAL_PLANNERS, LOCAL_PLANNERS = tuple(GLOBAL_KINDS), tuple(LOCAL_KINDS)
 WORLDS = (("builtin", BUILTIN), ("willow", WILLOW))   # JSON key part, map
