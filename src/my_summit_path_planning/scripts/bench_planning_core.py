@@ -343,9 +343,12 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
                 fails += 1
                 stuck += 1
                 if stuck * period >= p.move_base.controller_patience:
-                    # move_base would start its recoveries here: the aggressive reset of the
-                    # obstacle layers (the rotations are left to the node), then a new plan.
-                    clear_costmap_layers(loc, pose[:2], 0.0, ("obstacle_layer",), force_clear_all=True)
+                    # move_base would start its recoveries here: the aggressive reset of both
+                    # costmaps' obstacle layers (clear_costmap_recovery's affected_maps "both";
+                    # the rotations are left to the node), then a new plan.
+                    for costmap in (loc, g):
+                        clear_costmap_layers(costmap, pose[:2], 0.0, ("obstacle_layer",), force_clear_all=True)
+                    g.update_map(*pose)
                     recoveries += 1
                     stuck = 0
                     r = planner.make_plan(cm, pose[:2], (gx, gy))

@@ -65,8 +65,9 @@ Deliberate differences from the real planner:
   the half-cell-shifted coordinates, taking the cell below and left half the time).
 - make_plan follows our NavFn's contract: the same error texts, default_tolerance
   honoured, and a robot whose centre is in a forbidden but not lethal cell (inscribed, or
-  unknown without allow_unknown) gets a plan out of that region (the real planner frees
-  the robot's cell only, in the shared costmap). The costmap is never modified.
+  unknown without allow_unknown) gets a plan out of that region by a short way
+  (navfn.start_region; the real planner frees the robot's cell only, in the shared
+  costmap). The costmap is never modified.
 - The fill around the goal (clearEndpoint) covers passable cells only, at their cell
   cost (the real one fills obstacle cells too, at raw cost + neutral_cost), so no path
   point can be pulled into an obstacle.
@@ -77,11 +78,11 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from .navfn import POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints
+from .navfn import (POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints,
+                    start_region)
 from .params import ParamError, _coerce
 
 from summit_nav_common.jit import njit
@@ -696,9 +697,5 @@ class GlobalPlanner:
 
 
 def _open_start_region(data, cost, sc, value):
-    """Make the forbidden, non-lethal region around the start cell passable at value (in place)."""
-    blocked = (~np.isfinite(cost)) & (data != LETHAL_OBSTACLE)
-    mask = np.zeros((data.shape[0] + 2, data.shape[1] + 2), np.uint8)
-    img = blocked.astype(np.uint8)
-    cv2.floodFill(img, mask, (int(sc[0]), int(sc[1])), 2, flags=8)
-    cost[img == 2] = value
+    """navfn.start_region made passable at value (in place)."""
+    cost[start_region(~np.isfinite(cost), data == LETHAL_OBSTACLE, sc)] = value
