@@ -44,6 +44,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 sys.path.insert(0, os.path.join(WS, "tools"))
+import profile_node  # noqa: E402  (where a profile's time goes)
 
 TARGET_CPU_PER_SIM_S = 0.12   # [CPU s / simulated s]; the real amcl: 0.087
 REAL_AMCL_CPU_PER_SIM_S = 0.087
@@ -242,34 +243,13 @@ PROFILE_STAGES = (
 )
 
 
+# the scan handling contains the update, estimate and publishing; the callbacks contain it
+PROFILE_CONTAINS = {3: [0, 1, 2], 5: [3]}
+
+
 def profile_summary(path):
-    """{stage: share of the profiled CPU} of a profile_node.py profile (PROFILE_STAGES).
-
-    Each stage's cumulative CPU minus the stages it contains (the filter update,
-    estimate and publishing run inside the scan handling, which runs inside the
-    callbacks). Shares, not seconds: the profiler itself slows everything ~3x."""
-    import pstats
-    stats = pstats.Stats(path).stats
-    total = sum(v[2] for v in stats.values())  # own times add up to the profiled CPU
-
-    def cum(keys):
-        return sum(v[3] for (f, _line, name), v in stats.items()
-                   if any(f.endswith(suffix) and name == fn for suffix, fn in keys))
-
-    update, estimate, publish, scan, read, callbacks = (cum(keys) for _, keys in PROFILE_STAGES)
-    own = [update, estimate, publish, scan - update - estimate - publish, read, callbacks - scan]
-    shares = {name: round(max(v, 0.0) / total, 3) for (name, _), v in zip(PROFILE_STAGES, own)}
-    shares["other"] = round(max(0.0, 1.0 - sum(shares.values())), 3)
-    return shares
-
-
-def print_profile(path, limit=25):
-    import pstats
-    st = pstats.Stats(path)
-    print(f"\n--- {path}: by cumulative CPU time ---")
-    st.sort_stats("cumulative").print_stats(limit)
-    print(f"--- {path}: by own CPU time ---")
-    st.sort_stats("tottime").print_stats(limit)
+    """{stage: share of the profiled CPU} of a profile_node.py profile (PROFILE_STAGES)."""
+    return profile_node.stage_shares(path, PROFILE_STAGES, PROFILE_CONTAINS)
 
 
 def child(args):
@@ -280,7 +260,7 @@ def child(args):
         with tempfile.TemporaryDirectory(prefix="bench_amcl_node_") as tmp:
             r = run_once(args.run_index, args, tmp)
     if r["profile"] and os.path.exists(r["profile"] + ".pstats"):
-        print_profile(r["profile"] + ".pstats")
+        profile_node.print_profile(r["profile"] + ".pstats", 25)
         r["profile_shares"] = profile_summary(r["profile"] + ".pstats")
     print("\n" + json.dumps(r), flush=True)
     return 0

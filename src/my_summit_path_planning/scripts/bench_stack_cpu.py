@@ -51,6 +51,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(WS, "src", "my_summit_localization", "scripts"))
+import profile_node  # noqa: E402  (where a profile's time goes)
 
 TARGET_SUM_CPU_PER_SIM_S = 0.6           # issue 24: map_server + amcl + move_base while navigating
 REAL_CPU_PER_SIM_S = {"amcl": 0.094, "move_base": 0.41, "sum": 0.50}   # issue 24's C++ reference
@@ -200,32 +201,9 @@ CONTAINS = {   # stage index -> indices of the stages that run inside it
 
 
 def profile_summary(path):
-    """{stage: share of the profiled CPU} of a profile (PROFILE_STAGES); shares, not
-    seconds: the profiler slows everything."""
-    import pstats
-    stats = pstats.Stats(path).stats
-    total = sum(v[2] for v in stats.values())   # own times add up to the profiled CPU
-
-    def cum(keys):
-        return sum(v[3] for (f, _line, name), v in stats.items()
-                   if any(f.endswith(suffix) and name == fn for suffix, fn in keys))
-
-    raw = [cum(keys) for _, keys in PROFILE_STAGES]
-    own = list(raw)
-    for i, inner in CONTAINS.items():
-        own[i] = raw[i] - sum(raw[j] for j in inner)
-    shares = {name: round(max(v, 0.0) / total, 3) for (name, _), v in zip(PROFILE_STAGES, own)}
-    shares["other (rospy, actionlib, timers, thread bookkeeping)"] = round(max(0.0, 1.0 - sum(shares.values())), 3)
-    return shares
-
-
-def print_profile(path, limit=30):
-    import pstats
-    st = pstats.Stats(path)
-    print(f"\n--- {path}: by cumulative CPU time ---")
-    st.sort_stats("cumulative").print_stats(limit)
-    print(f"--- {path}: by own CPU time ---")
-    st.sort_stats("tottime").print_stats(limit)
+    """{stage: share of the profiled CPU} of a profile (PROFILE_STAGES)."""
+    return profile_node.stage_shares(path, PROFILE_STAGES, CONTAINS,
+                                     other="other (rospy, actionlib, timers, thread bookkeeping)")
 
 
 def child(args):
@@ -236,7 +214,7 @@ def child(args):
         with tempfile.TemporaryDirectory(prefix="bench_stack_cpu_") as tmp:
             r = run_once(args.run_index, args, tmp)
     if r["profile"] and os.path.exists(r["profile"] + ".pstats"):
-        print_profile(r["profile"] + ".pstats")
+        profile_node.print_profile(r["profile"] + ".pstats")
         r["profile_shares"] = profile_summary(r["profile"] + ".pstats")
     print("\n" + json.dumps(r), flush=True)
     return 0

@@ -1,0 +1,47 @@
+"""tools/profile_node.stage_shares: a profile split into stages, inner stages subtracted."""
+import cProfile
+import os
+import sys
+import time
+
+WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(WS, "tools"))
+import profile_node  # noqa: E402
+
+
+def busy(seconds):
+    end = time.process_time() + seconds
+    while time.process_time() < end:
+        pass
+
+
+def inner():
+    busy(0.2)
+
+
+def outer():
+    inner()
+    busy(0.2)
+
+
+def elsewhere():
+    busy(0.1)
+
+
+def test_stage_shares_subtract_the_stages_inside(tmp_path):
+    prof = cProfile.Profile(time.process_time)
+    prof.enable()
+    outer()
+    elsewhere()
+    prof.disable()
+    path = str(tmp_path / "p.pstats")
+    prof.dump_stats(path)
+    here = os.path.basename(__file__)
+    stages = [("inner", [(here, "inner")]), ("outer, own", [(here, "outer")])]
+    shares = profile_node.stage_shares(path, stages, {1: [0]})
+    # 0.2 s inner, 0.2 s outer's own, 0.1 s in no stage, of 0.5 s
+    assert abs(shares["inner"] - 0.4) < 0.05
+    assert abs(shares["outer, own"] - 0.4) < 0.05
+    assert abs(shares["other"] - 0.2) < 0.05
+    # without saying outer contains inner, inner's time is counted twice
+    assert profile_node.stage_shares(path, stages, {})["outer, own"] > 0.75
