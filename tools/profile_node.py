@@ -39,6 +39,44 @@ class _Snapshot:
         pass
 
 
+def launch_prefix(out_prefix, all_threads=False):
+    """A roslaunch launch-prefix that runs a node under this tool, its profile at out_prefix.
+    OPENBLAS_NUM_THREADS as our nodes set it for themselves: the profiler's rospy import
+    loads numpy before the node's first line runs."""
+    return (f"env OPENBLAS_NUM_THREADS=1 /usr/bin/python3 {os.path.abspath(__file__)} "
+            + ("--all-threads " if all_threads else "") + out_prefix)
+
+
+def child_run(run_once, args, tmp_prefix, summary, limit=30):
+    """One benchmark run in this process (rospy joins one master per process):
+    run_once(index, args, folder) -> dict; its profile, if any, printed and summed up
+    by summary(path) into profile_shares; the dict printed as JSON on the last line."""
+    import tempfile
+    if args.profile:  # keep the launch log beside the profile
+        r = run_once(args.run_index, args, os.path.abspath(args.profile))
+    else:
+        with tempfile.TemporaryDirectory(prefix=tmp_prefix) as tmp:
+            r = run_once(args.run_index, args, tmp)
+    if r.get("profile") and os.path.exists(r["profile"] + ".pstats"):
+        print_profile(r["profile"] + ".pstats", limit)
+        r["profile_shares"] = summary(r["profile"] + ".pstats")
+    print("\n" + json.dumps(r), flush=True)
+    return 0
+
+
+def run_child(cmd, index):
+    """Run one child_run process; returns its JSON result (its other output printed)."""
+    import subprocess
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    out = proc.stdout
+    start = out.rfind("\n{")
+    if proc.returncode != 0 or start < 0:
+        print(out)
+        raise RuntimeError(f"run {index} failed (exit {proc.returncode})")
+    print(out[:start])
+    return json.loads(out[start + 1:])
+
+
 def stage_shares(path, stages, contains, other="other"):
     """{stage: share of the profiled CPU} of a profile written by this tool.
 

@@ -35,7 +35,6 @@ import math
 import os
 import statistics
 import sys
-import tempfile
 import threading
 import time
 
@@ -176,10 +175,7 @@ def run_once(index, args, tmp):
     out_prefix = None
     if args.profile:
         out_prefix = os.path.join(os.path.abspath(args.profile), f"amcl_run{index}")
-        # OPENBLAS_NUM_THREADS as the node sets it for itself: the profiler's rospy import
-        # loads numpy before the node's first line runs.
-        prefix = (f"env OPENBLAS_NUM_THREADS=1 /usr/bin/python3 {os.path.join(WS, 'tools', 'profile_node.py')} "
-                  f"{out_prefix}")
+        prefix = profile_node.launch_prefix(out_prefix)
     launch_path = os.path.join(tmp, f"bench_amcl_node_{index}.launch")
     with open(launch_path, "w") as f:
         f.write(LAUNCH.format(speed=args.speed, prefix=prefix))
@@ -253,17 +249,7 @@ def profile_summary(path):
 
 
 def child(args):
-    """One run in this process (rospy can join one master per process); JSON on stdout."""
-    if args.profile:  # keep the launch log beside the profile
-        r = run_once(args.run_index, args, os.path.abspath(args.profile))
-    else:
-        with tempfile.TemporaryDirectory(prefix="bench_amcl_node_") as tmp:
-            r = run_once(args.run_index, args, tmp)
-    if r["profile"] and os.path.exists(r["profile"] + ".pstats"):
-        profile_node.print_profile(r["profile"] + ".pstats", 25)
-        r["profile_shares"] = profile_summary(r["profile"] + ".pstats")
-    print("\n" + json.dumps(r), flush=True)
-    return 0
+    return profile_node.child_run(run_once, args, "bench_amcl_node_", profile_summary, 25)
 
 
 def main():
@@ -284,21 +270,13 @@ def main():
         os.makedirs(args.profile, exist_ok=True)
     if args.run_index is not None:
         return child(args)
-    import subprocess
     runs = []
     for i in range(args.runs):
         cmd = [sys.executable, os.path.abspath(__file__), "--run-index", str(i), "--sim-time", str(args.sim_time),
                "--start", str(args.start), "--speed", str(args.speed)]
         cmd += (["--cloud"] if args.cloud else []) + (["--profile", args.profile] if args.profile else [])
         cmd += [a for la in args.launch_arg for a in ("--launch-arg", la)]
-        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        out = proc.stdout
-        start = out.rfind("\n{")
-        if proc.returncode != 0 or start < 0:
-            print(out)
-            raise RuntimeError(f"run {i} failed (exit {proc.returncode})")
-        print(out[:start])
-        r = json.loads(out[start + 1:])
+        r = profile_node.run_child(cmd, i)
         runs.append(r)
         print(f"run {i}: {r['cpu_per_sim_s']:.3f} CPU s per simulated s ({r['cpu_s']:.1f} s over "
               f"{r['sim_s']:.1f} s simulated, {r['wall_s']:.1f} s wall); peak RSS {r['peak_rss_mb']:.0f} MB; "

@@ -40,9 +40,7 @@ import json
 import math
 import os
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -98,8 +96,7 @@ def run_once(index, args, tmp):
     out_prefix = None
     if args.profile:
         out_prefix = os.path.join(os.path.abspath(args.profile), f"move_base_run{index}")
-        prefix = (f"env OPENBLAS_NUM_THREADS=1 /usr/bin/python3 {os.path.join(WS, 'tools', 'profile_node.py')} "
-                  f"--all-threads {out_prefix}")
+        prefix = profile_node.launch_prefix(out_prefix, all_threads=True)
     goals = draw_goals(args.goals, args.seed)
     log = os.path.join(tmp, f"bench_stack_cpu_run{index}.log")
     launch = ["my_summit_path_planning", "move_base.launch", "sim:=true", f"speed:={args.speed}",
@@ -207,17 +204,7 @@ def profile_summary(path):
 
 
 def child(args):
-    """One run in this process (rospy joins one master per process); JSON on stdout."""
-    if args.profile:
-        r = run_once(args.run_index, args, os.path.abspath(args.profile))
-    else:
-        with tempfile.TemporaryDirectory(prefix="bench_stack_cpu_") as tmp:
-            r = run_once(args.run_index, args, tmp)
-    if r["profile"] and os.path.exists(r["profile"] + ".pstats"):
-        profile_node.print_profile(r["profile"] + ".pstats")
-        r["profile_shares"] = profile_summary(r["profile"] + ".pstats")
-    print("\n" + json.dumps(r), flush=True)
-    return 0
+    return profile_node.child_run(run_once, args, "bench_stack_cpu_", profile_summary)
 
 
 def main():
@@ -244,14 +231,7 @@ def main():
         cmd = [sys.executable, os.path.abspath(__file__), "--run-index", str(i), "--goals", str(args.goals),
                "--seed", str(args.seed), "--speed", str(args.speed)]
         cmd += ["--profile", args.profile] if args.profile else []
-        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        out = proc.stdout
-        start = out.rfind("\n{")
-        if proc.returncode != 0 or start < 0:
-            print(out)
-            raise RuntimeError(f"run {i} failed (exit {proc.returncode})")
-        print(out[:start])
-        r = json.loads(out[start + 1:])
+        r = profile_node.run_child(cmd, i)
         runs.append(r)
         c = r["cpu_per_sim_s"]
         print(f"run {i}: CPU s per simulated s: " + ", ".join(f"{n} {c[n]:.3f}" for n in NODES)
