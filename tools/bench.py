@@ -181,14 +181,19 @@ def bench_sim_rtf_runs(runs):
     return med
 
 
-def bench_slam_carmen(logs=None):
-    """bench_slam_carmen.py on `logs` (names, default all of its logs)."""
-    script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_carmen.py")
-    path = os.path.join(OUT, "bench_slam_carmen.json")
-    subprocess.run([sys.executable, script, "--json", path, "--out", OUT] + (["--logs"] + logs if logs else []),
+def _run_script(package, script, args, json_name):
+    """src/<package>/scripts/<script> run with args and --json OUT/json_name; its JSON result."""
+    path = os.path.join(OUT, json_name)
+    subprocess.run([sys.executable, os.path.join(WS, "src", package, "scripts", script)] + args + ["--json", path],
                    check=True)
     with open(path) as f:
         return json.load(f)
+
+
+def bench_slam_carmen(logs=None):
+    """bench_slam_carmen.py on `logs` (names, default all of its logs)."""
+    return _run_script("my_summit_mapping", "bench_slam_carmen.py",
+                       ["--out", OUT] + (["--logs"] + logs if logs else []), "bench_slam_carmen.json")
 
 
 BAG_RATE = 4.0          # rosbag play rate of slam_bag: on 2 cores at load ~9 the node kept up
@@ -200,46 +205,29 @@ CARMEN_LOGS = {"intel": "intel-corrected.log.gz", "aces": "aces-corrected.log.gz
 
 def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS):
     """bench_slam_bag.py on each of `logs` (names, default intel and aces)."""
-    script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_bag.py")
     res = {"rate": rate, "logs": {}}
     for name in logs or list(CARMEN_LOGS):
-        path = os.path.join(OUT, f"bench_slam_bag_{name}.json")
-        subprocess.run([sys.executable, script, os.path.join(DATA, "carmen", CARMEN_LOGS[name]), "--rate", str(rate),
-                        "--seeds"] + [str(s) for s in seeds] + ["--json", path, "--out",
-                                                                 os.path.join(OUT, f"slam_bag_{name}")], check=True)
-        with open(path) as f:
-            res["logs"][name] = json.load(f)
+        res["logs"][name] = _run_script(
+            "my_summit_mapping", "bench_slam_bag.py",
+            [os.path.join(DATA, "carmen", CARMEN_LOGS[name]), "--rate", str(rate), "--seeds"]
+            + [str(s) for s in seeds] + ["--out", os.path.join(OUT, f"slam_bag_{name}")], f"bench_slam_bag_{name}.json")
     return res
 
 
 def bench_slam_sim(runs):
-    script = os.path.join(WS, "src", "my_summit_mapping", "scripts", "bench_slam_sim.py")
-    path = os.path.join(OUT, "bench_slam_sim.json")
-    subprocess.run([sys.executable, script, "--runs", str(runs), "--speed", "3", "--json", path, "--out", OUT],
-                   check=True)
-    with open(path) as f:
-        return json.load(f)
+    return _run_script("my_summit_mapping", "bench_slam_sim.py", ["--runs", str(runs), "--speed", "3", "--out", OUT],
+                       "bench_slam_sim.json")
 
 
 def bench_amcl(runs):
     """The amcl core (bench_amcl_core.py), then the live node on the tour
     (bench_amcl_node.py): median CPU per simulated second of `runs` runs, and one
     profiled run for where the time goes."""
-    script = os.path.join(WS, "src", "my_summit_localization", "scripts", "bench_amcl_core.py")
-    path = os.path.join(OUT, "bench_amcl.json")
-    subprocess.run([sys.executable, script, "--json", path], check=True)
-    with open(path) as f:
-        res = json.load(f)
-    node_script = os.path.join(WS, "src", "my_summit_localization", "scripts", "bench_amcl_node.py")
-    node_path = os.path.join(OUT, "bench_amcl_node.json")
-    subprocess.run([sys.executable, node_script, "--runs", str(runs), "--json", node_path], check=True)
-    with open(node_path) as f:
-        node = json.load(f)
-    prof_path = os.path.join(OUT, "bench_amcl_node_profile.json")
-    subprocess.run([sys.executable, node_script, "--runs", "1", "--sim-time", "30", "--profile",
-                    os.path.join(OUT, "amcl_profile"), "--json", prof_path], check=True)
-    with open(prof_path) as f:
-        shares = json.load(f).get("profile_shares")
+    res = _run_script("my_summit_localization", "bench_amcl_core.py", [], "bench_amcl.json")
+    node = _run_script("my_summit_localization", "bench_amcl_node.py", ["--runs", str(runs)], "bench_amcl_node.json")
+    shares = _run_script("my_summit_localization", "bench_amcl_node.py",
+                         ["--runs", "1", "--sim-time", "30", "--profile", os.path.join(OUT, "amcl_profile")],
+                         "bench_amcl_node_profile.json").get("profile_shares")
     res["node"] = {"median": node["median"], "runs": len(node["runs"]), "sim_time": node["sim_time"],
                    "speed": node["speed"], "profile_shares": shares,
                    "real_amcl_cpu_per_sim_s": node["real_amcl_cpu_per_sim_s"]}
@@ -249,20 +237,13 @@ def bench_amcl(runs):
 def bench_planning(runs):
     """The path-planning core benchmark; timings are medians over `runs` repeats (the
     closed loop is seeded and deterministic, so it runs once, every planner combination)."""
-    script = os.path.join(WS, "src", "my_summit_path_planning", "scripts", "bench_planning_core.py")
-    path = os.path.join(OUT, "bench_planning.json")
-    subprocess.run([sys.executable, script, "--repeats", str(runs), "--runs", "50", "--willow-runs", "20",
-                    "--matrix", "--json", path], check=True)
-    with open(path) as f:
-        res = json.load(f)
+    res = _run_script("my_summit_path_planning", "bench_planning_core.py",
+                      ["--repeats", str(runs), "--runs", "50", "--willow-runs", "20", "--matrix"], "bench_planning.json")
     # For contrast, the built-in world's closed loop at the base's top speed (1.5 m/s):
     # the in-place turns and the acceleration take the same time at any max_vel_x, so
     # they weigh more in the time ratio the faster the robot may drive.
-    fast_path = os.path.join(OUT, "bench_planning_fast.json")
-    subprocess.run([sys.executable, script, "--skip-navfn", "--runs", "50", "--max-vel-x", "1.5",
-                    "--json", fast_path], check=True)
-    with open(fast_path) as f:
-        fast = json.load(f)
+    fast = _run_script("my_summit_path_planning", "bench_planning_core.py",
+                       ["--skip-navfn", "--runs", "50", "--max-vel-x", "1.5"], "bench_planning_fast.json")
     res["closed_loop_builtin_fast"] = dict(fast["closed_loop_builtin"], max_vel_x=fast["max_vel_x"])
     for key in [k for k in res if k.startswith("closed_loop_")]:  # the per-run details stay in the JSON files
         res[key] = {k: v for k, v in res[key].items() if k != "runs_detail"}
@@ -275,16 +256,10 @@ STACK_CPU_PROFILE_GOALS = 4   # the profiled run drives the first goals only (th
 def bench_stack_cpu(runs):
     """bench_stack_cpu.py: median of `runs` runs of the 10 goals, then one profiled run of
     move_base over the first STACK_CPU_PROFILE_GOALS goals."""
-    script = os.path.join(WS, "src", "my_summit_path_planning", "scripts", "bench_stack_cpu.py")
-    path = os.path.join(OUT, "bench_stack_cpu.json")
-    subprocess.run([sys.executable, script, "--runs", str(runs), "--json", path], check=True)
-    with open(path) as f:
-        res = json.load(f)
-    prof_path = os.path.join(OUT, "bench_stack_cpu_profile.json")
-    subprocess.run([sys.executable, script, "--runs", "1", "--goals", str(STACK_CPU_PROFILE_GOALS), "--profile",
-                    os.path.join(OUT, "move_base_profile"), "--json", prof_path], check=True)
-    with open(prof_path) as f:
-        prof = json.load(f)
+    res = _run_script("my_summit_path_planning", "bench_stack_cpu.py", ["--runs", str(runs)], "bench_stack_cpu.json")
+    prof = _run_script("my_summit_path_planning", "bench_stack_cpu.py",
+                       ["--runs", "1", "--goals", str(STACK_CPU_PROFILE_GOALS), "--profile",
+                        os.path.join(OUT, "move_base_profile")], "bench_stack_cpu_profile.json")
     res["profile"] = {"goals": prof["goals"], "profile_shares": prof.get("profile_shares"),
                       "threads": prof.get("threads")}
     for r in res["runs"]:   # the per-goal details stay in the script's JSON
