@@ -68,6 +68,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_report  # noqa: E402
+import profile_node  # noqa: E402  (where a profiled run's time goes)
 from roslaunch_session import RoslaunchSession, wait_for  # noqa: E402
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -113,11 +114,12 @@ def bench_laser(runs, scans_per_run=500):
     return rows
 
 
-def bench_sim_rtf_once(seconds=20.0):
+def bench_sim_rtf_once(seconds=20.0, profile=None):
     """Real-time factor of the simulator node at speed 0 (as fast as it can), one run.
 
     rospy binds a process to one master, so each run is a child process (see
-    bench_sim_rtf_runs) with its own launch.
+    bench_sim_rtf_runs) with its own launch. With profile (a path prefix) the simulator
+    runs under tools/profile_node.py and its stage shares are returned instead.
     """
     import psutil
     import rospy
@@ -128,7 +130,10 @@ def bench_sim_rtf_once(seconds=20.0):
     from tf2_msgs.msg import TFMessage
 
     log = os.path.join(OUT, "bench_sim_rtf.log")
-    with RoslaunchSession(["summit_xl_sim", "sim.launch", "speed:=0"], log=log) as session:
+    launch = ["summit_xl_sim", "sim.launch", "speed:=0"]
+    if profile:
+        launch.append("launch_prefix:=" + profile_node.launch_prefix(profile, all_threads=True))
+    with RoslaunchSession(launch, log=log) as session:
         rospy.init_node("bench", anonymous=True, disable_signals=True)
         counts = {"scan": 0, "odom": 0, "truth": 0, "tf": 0, "clock": 0}
         latest = {"t": 0.0}
@@ -161,23 +166,49 @@ def bench_sim_rtf_once(seconds=20.0):
         cpu1 = sum(sim.cpu_times()[:2])
         rss = sim.memory_info().rss / 1e6
     sim_s = max(t1 - t0, 1e-9)
+    if profile:
+        profile_node.print_profile(profile + ".pstats", 25)
+        return {"profile_shares": profile_node.stage_shares(profile + ".pstats", SIM_PROFILE_STAGES,
+                                                            SIM_PROFILE_CONTAINS)}
     return {"rtf": sim_s / (w1 - w0), "sim_cpu_s_per_sim_s": (cpu1 - cpu0) / sim_s,
             "scan_hz_sim": (c1["scan"] - c0["scan"]) / sim_s, "odom_hz_sim": (c1["odom"] - c0["odom"]) / sim_s,
             "clock_hz_sim": (c1["clock"] - c0["clock"]) / sim_s, "sim_rss_mb": rss}
 
 
+# Where the simulator's time goes: stage -> functions whose cumulative CPU it is
+SIM_PROFILE_STAGES = (
+    ("laser: ray casting", [("world.py", "cast"), ("world.py", "cast_hits")]),
+    ("laser: range model (noise, mixed pixels, no returns)", [("laser_model.py", "measure")]),
+    ("laser: the rest of a scan (pose, other robots)", [("sim.py", "scan")]),
+    ("physics step (motion, odometry drift, collisions)", [("sim.py", "step")]),
+    ("publishing (clock, odom, tf, scans): serializing and sending", [("rospy/topics.py", "publish")]),
+    ("receiving messages (its own /clock, as rospy subscribes it under use_sim_time; cmd_vel)",
+     [("tcpros_base.py", "receive_once")]),
+    ("the rest of the loop (building odom and tf messages, pacing)", [("nodes/summit_xl_sim", "run")]),
+    ("start-up (imports, loading the world)", [("nodes/summit_xl_sim", "<module>")]),
+)
+# a scan contains the cast and the range model; the loop its scans, steps and publishing;
+# the node's module everything its main thread did
+SIM_PROFILE_CONTAINS = {2: [0, 1], 6: [2, 3, 4], 7: [6]}
+
+
+def _sim_rtf_child(extra=()):
+    r = subprocess.run([sys.executable, __file__, "--only", "sim_rtf_child"] + list(extra), stdout=subprocess.PIPE,
+                       stderr=subprocess.DEVNULL, text=True, timeout=300)
+    line = [l for l in r.stdout.splitlines() if l.startswith("{")]
+    if r.returncode != 0 or not line:
+        raise RuntimeError(f"simulator benchmark child failed:\n{r.stdout[-2000:]}")
+    print(r.stdout[:r.stdout.rfind(line[-1])], end="")
+    return json.loads(line[-1])
+
+
 def bench_sim_rtf_runs(runs):
-    """Runs bench_sim_rtf in `runs` child processes (one ROS master each); medians."""
-    rows = []
-    for _ in range(runs):
-        r = subprocess.run([sys.executable, __file__, "--only", "sim_rtf_child"], stdout=subprocess.PIPE,
-                           stderr=subprocess.DEVNULL, text=True, timeout=300)
-        line = [l for l in r.stdout.splitlines() if l.startswith("{")]
-        if r.returncode != 0 or not line:
-            raise RuntimeError(f"simulator benchmark child failed:\n{r.stdout[-2000:]}")
-        rows.append(json.loads(line[-1]))
+    """Runs bench_sim_rtf in `runs` child processes (one ROS master each); medians; then
+    one profiled run for where the time goes."""
+    rows = [_sim_rtf_child() for _ in range(runs)]
     med = {k: statistics.median(r[k] for r in rows) for k in rows[0]}
     med["runs_rtf"] = [round(r["rtf"], 1) for r in rows]
+    med["profile_shares"] = _sim_rtf_child(["--profile", os.path.join(OUT, "sim_profile")])["profile_shares"]
     return med
 
 
@@ -334,6 +365,7 @@ def main():
                     help="slam_carmen, slam_bag: only these CARMEN logs (intel, aces; default both)")
     ap.add_argument("--bag-rate", type=float, default=BAG_RATE,
                     help=f"slam_bag: rosbag play rate (default {BAG_RATE:g})")
+    ap.add_argument("--profile", metavar="PREFIX", help=argparse.SUPPRESS)  # sim_rtf's profiled child
     ap.add_argument("--render", action="store_true",
                     help="only re-render docs/benchmarks.md and the README's table from docs/bench.json")
     args = ap.parse_args()
@@ -343,7 +375,7 @@ def main():
               f"{os.path.relpath(bench_report.STORE, WS)}")
         return 0
     if args.only == ["sim_rtf_child"]:
-        print(json.dumps(bench_sim_rtf_once()))
+        print(json.dumps(bench_sim_rtf_once(profile=args.profile)))
         return 0
     only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_sim", "amcl", "planning", "stack_cpu", "explore", "patrol",
                          "multi_robot"]

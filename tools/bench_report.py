@@ -94,7 +94,17 @@ def rows_sim_rtf(med):
                 f"{med['clock_hz_sim']:.0f} Hz simulated; RSS {med['sim_rss_mb']:.0f} MB)",
                 {k: med[k] for k in ("rtf", "runs_rtf", "sim_cpu_s_per_sim_s", "scan_hz_sim", "odom_hz_sim",
                                      "clock_hz_sim", "sim_rss_mb")},
-                f">= {SIM_RTF_TARGET:g}x", med["rtf"] >= SIM_RTF_TARGET)]
+                f">= {SIM_RTF_TARGET:g}x", med["rtf"] >= SIM_RTF_TARGET)] + profile_rows(
+        "the simulator, one profiled run (20 s at full speed)", med.get("profile_shares"))
+
+
+def profile_rows(what, shares):
+    """A row of where a profiled node's time goes (stage shares), if it was profiled."""
+    if not shares:
+        return []
+    return [row(f"{what}: where its time goes, share of its profiled CPU",
+                ", ".join(f"{k} {v:.0%}" for k, v in sorted(shares.items(), key=lambda kv: -kv[1]) if v >= 0.005),
+                {"profile_shares": shares})]
 
 
 CARMEN_ATE_TARGETS = {"intel": 0.10}  # [m]
@@ -336,11 +346,7 @@ def rows_stack_cpu(res):
     ]
     prof = res.get("profile")
     if prof:
-        shares = prof.get("profile_shares") or {}
-        out.append(row(f"move_base, one profiled run ({prof['goals']} of the goals): where its time goes, share of "
-                       "its profiled CPU",
-                       ", ".join(f"{k} {v:.0%}" for k, v in sorted(shares.items(), key=lambda kv: -kv[1]) if v >= 0.005),
-                       {"profile_shares": shares}))
+        out += profile_rows(f"move_base, one profiled run ({prof['goals']} of the goals)", prof.get("profile_shares"))
         threads = prof.get("threads") or {}
         total = sum(threads.values()) or 1.0
         out.append(row("... move_base's CPU by thread in the profiled run (share)",

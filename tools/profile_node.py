@@ -8,10 +8,11 @@ rospy runs each subscription's receive loop (socket read, deserialization, the u
 callbacks) in a thread of its own, which `python3 -m cProfile` does not see. Here every
 message received is profiled in its thread, with time.thread_time as the clock, so a
 blocking socket read costs nothing and what is left is the CPU spent per topic. With
---all-threads every thread the node starts (threading.Thread: update loops, planner and
-control threads, action servers) is profiled from its start, and read at exit while it
-still runs (calls still in progress then are not counted). At exit
-(roslaunch's SIGINT ends rospy.spin) the node writes:
+--all-threads the node's main thread (a simulator's loop runs there) and every thread it
+starts (threading.Thread: update loops, planner and control threads, action servers) are
+profiled from their start, and read at exit while they still run (calls still in
+progress then are not counted). At exit (roslaunch's SIGINT ends rospy.spin) the node
+writes:
   OUT_PREFIX.pstats        all threads' profiles merged (pstats.Stats(path))
   OUT_PREFIX.threads.json  {native thread id: topic name} of the receive threads (and
                            class, name and target of the others still running), so
@@ -81,15 +82,22 @@ def stage_shares(path, stages, contains, other="other"):
     """{stage: share of the profiled CPU} of a profile written by this tool.
 
     stages: [(name, [(file suffix, function name), ...])]: a stage's figure is the
-    cumulative CPU of those functions; contains: {stage index: [indices of the stages that
+    cumulative CPU of those functions (each call counted once when they call each other); contains: {stage index: [indices of the stages that
     run inside it]}, subtracted from it. What no stage covers is `other`. Shares, not
     seconds: the profiler slows everything."""
     stats = pstats.Stats(path).stats
     total = sum(v[2] for v in stats.values())   # own times add up to the profiled CPU
 
     def cum(keys):
-        return sum(v[3] for (f, _line, name), v in stats.items()
-                   if any(f.endswith(suffix) and name == fn for suffix, fn in keys))
+        """Cumulative CPU of the matching functions, entered from outside them: a match
+        called by another match (rospy's Publisher.publish calls its impl's publish) is
+        already inside the caller's figure."""
+        matched = {k for k in stats if any(k[0].endswith(suffix) and k[2] == fn for suffix, fn in keys)}
+        out = 0.0
+        for k in matched:
+            ct, callers = stats[k][3], stats[k][4]
+            out += ct - sum(v[3] for c, v in callers.items() if c in matched and c != k)
+        return out
 
     raw = [cum(keys) for _, keys in stages]
     own = [raw[i] - sum(raw[j] for j in contains.get(i, ())) for i in range(len(raw))]
@@ -201,7 +209,19 @@ def main():
             json.dump({"pid": os.getpid(), "threads": {str(k): v for k, v in names.items()}}, f)
 
     atexit.register(dump)
-    runpy.run_path(script, run_name="__main__")
+    if not all_threads:
+        runpy.run_path(script, run_name="__main__")
+        return
+    # The node's main thread too (a simulator's or a driver's loop runs there).
+    names[threading.get_native_id()] = "main thread"
+    prof = profiler()
+    local.state["active"] = True
+    prof.enable()
+    try:
+        runpy.run_path(script, run_name="__main__")
+    finally:
+        prof.disable()
+        local.state["active"] = False
 
 
 if __name__ == "__main__":
