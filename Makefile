@@ -30,16 +30,21 @@ $(BUILD_STAMP): $(PY_SOURCES)
 	@touch $(BUILD_STAMP)
 	@echo "build: ok (catkin_make, log in build.log)"
 
-# Unit tests (pytest, no ROS master) then the rostest integration tests, all through
-# pytest so the run ends with one pytest summary line.
+# The unit tests (pytest, no ROS master) and the integration tests (rostest, roslaunch,
+# Xvfb), all through pytest so the run ends with one pytest summary line. TEST_JOBS
+# pytest-xdist workers run them side by side (each rostest has its own master on a free
+# port); the longest integration tests go first (tests/conftest.py). TEST_JOBS=0: one process.
+TEST_JOBS ?= 2
+PYTEST := $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) \
+	$(if $(filter 0,$(TEST_JOBS)),,-n $(TEST_JOBS))
 test: build
-	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) $(PYTEST_ARGS)
+	@$(SOURCE_WS) $(PYTEST) $(PYTEST_ARGS)
 
 unit: build
-	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) -m "not integration" $(PYTEST_ARGS)
+	@$(SOURCE_WS) $(PYTEST) -m "not integration" $(PYTEST_ARGS)
 
 integration: build
-	@$(SOURCE_WS) $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) -m integration $(PYTEST_ARGS)
+	@$(SOURCE_WS) $(PYTEST) -m integration $(PYTEST_ARGS)
 
 demo: build
 	@$(SOURCE_WS) $(PYTHON) tools/demo.py $(if $(GUI),--gui,) $(if $(SPEED),--speed $(SPEED),)

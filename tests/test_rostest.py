@@ -38,8 +38,24 @@ def case_id(path):
     return f"{package_of(path)}/{os.path.basename(path)}"
 
 
+LONG_BELOW_SPEED = 2.0  # a .test whose simulator runs slower than this takes minutes
+
+
+def simulator_speed(path):
+    """The simulator speed a .test sets (<arg name="speed" value|default="X"/>), or None."""
+    with open(path) as f:
+        m = re.search(r'<arg\s+name="speed"\s+(?:value|default)="([0-9.]+)"', f.read())
+    return float(m.group(1)) if m else None
+
+
+def test_param(path):
+    speed = simulator_speed(path)
+    long = speed is not None and speed < LONG_BELOW_SPEED
+    return pytest.param(path, id=case_id(path), marks=[pytest.mark.long] if long else [])
+
+
 @pytest.mark.integration
-@pytest.mark.parametrize("test_file", TEST_FILES, ids=[case_id(p) for p in TEST_FILES])
+@pytest.mark.parametrize("test_file", [test_param(p) for p in TEST_FILES])
 def test_rostest(test_file, tmp_path):
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path))
     rc, out = run_bounded(rostest_command(test_file), env, TIMEOUT)
