@@ -13,14 +13,15 @@ beside each time. Sections:
   laser       simulated scans per second (1081 beams) on the built-in world and on
               willow-full, one core, the simulator's ray casting alone
   sim_rtf     the simulator's real-time factor with one robot, running as fast as it can
-              with every topic subscribed (/clock, /tf, /odom, ground truth, 40 Hz scans)
+              with every topic subscribed (/clock, /tf, /odom, ground truth, 40 Hz scans);
+              one profiled run for where its time goes
   slam_carmen the SLAM core offline on the CARMEN Intel and ACES logs
   slam_bag    slam_gmapping (ROS node, the real node's evaluation parameters) on the
               CARMEN Intel and ACES logs played from a rosbag (rosbag play --clock -r
               BAG_RATE), seeds 1 2 3: online aligned ATE, CPU per filter update, peak RSS
   slam_sim    slam_gmapping (ROS node, course parameters, 30 particles) over the tour of
               the built-in world: ATE vs ground truth, map precision / recall, CPU per
-              simulated second, peak RSS
+              simulated second, peak RSS; one profiled tour for where the node's time goes
   amcl        the amcl core: update cost (5000 particles, 61 beams), tracking on the tour,
               global localization from 20 seeded poses, kidnapping (10 runs); the live
               node on the tour: CPU per simulated second, and a profile of where it goes
@@ -246,8 +247,8 @@ def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS):
 
 
 def bench_slam_sim(runs):
-    return _run_script("my_summit_mapping", "bench_slam_sim.py", ["--runs", str(runs), "--speed", "3", "--out", OUT],
-                       "bench_slam_sim.json")
+    return _run_script("my_summit_mapping", "bench_slam_sim.py",
+                       ["--runs", str(runs), "--speed", "3", "--out", OUT, "--profile"], "bench_slam_sim.json")
 
 
 def bench_amcl(runs):

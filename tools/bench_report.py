@@ -31,11 +31,13 @@ NOT_APPLICABLE = "-"
 # Section name -> what it measures (the page's heading line), in the page's order.
 SECTIONS = {
     "laser": "simulated scans per second (1081 beams), one core, the simulator's ray casting alone",
-    "sim_rtf": "the simulator's real-time factor with one robot, as fast as it can, every topic subscribed",
+    "sim_rtf": ("the simulator's real-time factor with one robot, as fast as it can, every topic subscribed; "
+                "where its time goes (one profiled run)"),
     "slam_carmen": "the SLAM core offline on the CARMEN Intel and ACES logs",
     "slam_bag": "slam_gmapping (ROS node) live on the CARMEN Intel and ACES logs played from a rosbag, as the "
                 "real gmapping node is evaluated",
-    "slam_sim": "slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour",
+    "slam_sim": ("slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour; "
+                 "where its time goes (one profiled tour)"),
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping; the live node's CPU",
     "planning": ("the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop of every global x local "
                  "planner over seeded goal pairs"),
@@ -183,7 +185,7 @@ def rows_slam_sim(res):
             f"{m['cpu_per_sim_s']:.3f} s ({worst['cpu_per_sim_s']:.3f})",
             {"cpu_per_sim_s": m["cpu_per_sim_s"], "worst_cpu_per_sim_s": worst["cpu_per_sim_s"]},
             f"<= {SLAM_SIM_CPU} s", m["cpu_per_sim_s"] <= SLAM_SIM_CPU),
-    ]
+    ] + profile_rows("slam_gmapping, one profiled tour", res.get("profile_shares"))
 
 
 AMCL_UPDATE_MS = 10.0  # [ms] one filter update

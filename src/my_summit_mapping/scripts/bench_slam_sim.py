@@ -13,7 +13,12 @@ resident memory (VmHWM). Several runs: the median of each figure is reported too
 Targets (issue 3): ATE <= 0.05 m, precision >= 0.95, recall >= 0.90, <= 0.33 CPU s per
 simulated s.
 
-Usage: bench_slam_sim.py [--runs 1] [--speed 3] [--json PATH] [--out DIR]
+With --profile, one more run has slam_gmapping under tools/profile_node.py (every thread,
+CPU clock); the shares of its profiled CPU per stage (PROFILE_STAGES: scan matching, map
+integration, resampling, the map's publication, ...) go to the JSON as profile_shares. The
+profiler slows the node: that run's figures are not the benchmark's.
+
+Usage: bench_slam_sim.py [--runs 1] [--speed 3] [--json PATH] [--out DIR] [--profile]
                          [--timeout 600] [--launch-arg name:=value ...]
 """
 import argparse
@@ -31,11 +36,29 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
+import profile_node  # noqa: E402  (where a profiled run's time goes)
 
 TARGETS = dict(ate_m=0.05, precision=0.95, recall=0.90, cpu_per_sim_s=0.33)  # issue 3
 RSS_POLL = 0.5          # [s wall] between peak-memory samples
 FINAL_MAP_GRACE = 30.0  # [s sim] after the tour for the last map (map_update_interval 5 s)
 DEFAULT_WORLD = "course_building.yaml"
+
+# Where slam_gmapping's time goes: stage -> functions whose cumulative CPU it is
+PROFILE_STAGES = (
+    ("filter: scan matching", [("rbpf.py", "_scan_match")]),
+    ("filter: map integration (ray tracing into the particles' maps)", [("rbpf.py", "_integrate")]),
+    ("filter: resampling", [("rbpf.py", "_resample")]),
+    ("filter: motion model", [("rbpf.py", "_predict")]),
+    ("filter: the rest of an update (weights, trajectory)", [("rbpf.py", "process")]),
+    ("map publication (the best particle's map, the message)", [("nodes/slam_gmapping", "publish_map")]),
+    ("numba compilation at start", [("rbpf.py", "warm_up")]),
+    ("scan callbacks and the tf wait (checks, queueing)",
+     [("nodes/slam_gmapping", "on_scan"), ("tf_message_filter.py", "tf_arrived")]),
+    ("receiving messages (reading, deserializing; tf, clock)", [("tcpros_base.py", "receive_once")]),
+    ("map -> odom tf publication", [("nodes/slam_gmapping", "publish_tf_loop")]),
+)
+# an update contains its steps; receiving contains the scan callbacks
+PROFILE_CONTAINS = {4: [0, 1, 2, 3], 8: [7]}
 
 
 class TourRecorder:
@@ -182,6 +205,9 @@ def run_once(index, args, world, log_dir):
         config = SlamConfig.from_dict(yaml.safe_load(f))
     launch = ["my_summit_mapping", "gmapping.launch", f"speed:={args.speed}", "driver:=tour"] + args.launch_arg
     log = os.path.join(log_dir, f"bench_slam_sim_run{index}.log")
+    profile = os.path.join(log_dir, "slam_gmapping_profile") if args.profile else None
+    if profile:
+        launch.append("launch_prefix:=" + profile_node.launch_prefix(profile, all_threads=True))
     with RoslaunchSession(launch, log=log) as session:
         wait_for_sim_time(session, time.monotonic() + 60.0)
         rospy.init_node("bench_slam_sim", anonymous=True, disable_signals=True)  # once per process
@@ -223,6 +249,9 @@ def run_once(index, args, world, log_dir):
     result.update(run=index, sim_s=sim_s, cpu_s=cpu_at_done - cpu0,
                   cpu_per_sim_s=(cpu_at_done - cpu0) / sim_s, peak_rss_mb=peak[0],
                   particles=config.particles, speed=args.speed, log=log)
+    if profile:  # written when the node ended with the launch
+        profile_node.print_profile(profile + ".pstats", 25)
+        result["profile_shares"] = profile_node.stage_shares(profile + ".pstats", PROFILE_STAGES, PROFILE_CONTAINS)
     return result
 
 
@@ -259,6 +288,8 @@ def main(argv=None):
     parser.add_argument("--json", help="write the results as JSON to this path")
     parser.add_argument("--out", help="directory for the PNG of the map and the logs")
     parser.add_argument("--launch-arg", action="append", default=[], help="extra roslaunch arg name:=value")
+    parser.add_argument("--profile", action="store_true",
+                        help="one more run with slam_gmapping profiled: where its time goes")
     parser.add_argument("--run-index", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     out = args.out or os.path.join(WS, "output", "bench_slam_sim")
@@ -282,15 +313,20 @@ def run_all(args, out):
     results = []
     print(f"{'run':>3} {'ATE m':>7} {'prec':>6} {'recall':>6} {'CPU s/sim s':>11} {'peak RSS MB':>11} "
           f"{'sim s':>6} {'scans':>5}", flush=True)
-    for i in range(args.runs):
+    def child(i, extra=()):
         cmd = [sys.executable, os.path.abspath(__file__), "--run-index", str(i), "--speed", str(args.speed),
                "--timeout", str(args.timeout), "--out", out] + [f"--launch-arg={a}" for a in args.launch_arg]
-        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        proc = subprocess.run(cmd + list(extra), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
         if proc.returncode != 0 or not lines:
             print(proc.stdout[-4000:], file=sys.stderr)
+            return None
+        return json.loads(lines[-1][len("RESULT "):])
+
+    for i in range(args.runs):
+        r = child(i)
+        if r is None:
             return 1
-        r = json.loads(lines[-1][len("RESULT "):])
         results.append(r)
         print(f"{i:3d} {r['ate_m']:7.3f} {r['precision']:6.3f} {r['recall']:6.3f} {r['cpu_per_sim_s']:11.3f} "
               f"{r['peak_rss_mb']:11.0f} {r['sim_s']:6.0f} {r['processed_scans']:5d}", flush=True)
@@ -300,10 +336,18 @@ def run_all(args, out):
           f"{median['cpu_per_sim_s']:11.3f} {median['peak_rss_mb']:11.0f}")
     met = {k: (median[k] <= v if k in ("ate_m", "cpu_per_sim_s") else median[k] >= v) for k, v in TARGETS.items()}
     print("targets: " + ", ".join(f"{k} {'met' if ok else 'MISSED'} ({TARGETS[k]})" for k, ok in met.items()))
+    shares = None
+    if args.profile:
+        prof = child(args.runs, ["--profile"])
+        if prof is None:
+            return 1
+        shares = prof["profile_shares"]
+        print("profiled run, share of slam_gmapping's CPU: "
+              + ", ".join(f"{k} {v:.0%}" for k, v in sorted(shares.items(), key=lambda kv: -kv[1])))
     if args.json:
         with open(args.json, "w") as f:
             json.dump(dict(runs=results, median=median, targets=TARGETS, targets_met=met,
-                           speed=args.speed), f, indent=2)
+                           speed=args.speed, profile_shares=shares), f, indent=2)
     return 0
 
 
