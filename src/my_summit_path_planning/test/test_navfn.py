@@ -114,3 +114,34 @@ def test_unreachable_goal():
     cm.data[:, 15] = cv.LETHAL_OBSTACLE
     r = NavFn().make_plan(cm, (0.5, 0.5), (2.5, 2.5))
     assert not r.ok and "not reachable" in r.reason
+
+
+@pytest.mark.parametrize("kind", ["navfn", "global_planner"])
+def test_a_start_in_a_wall_band_leaves_it_but_does_not_cut_through_the_wall(kind):
+    """Field failure (closed-loop bench, willow-full-0.05, pair 20): the robot's centre in
+    an inscribed cell (laser marks in a doorway) opened the whole connected inscribed
+    region to the planner; along walls those bands join up, and between the cells of a
+    wall drawn with gaps they join both sides: the plan led through the wall, DWA could not
+    follow it, and the goal timed out. Here a wall of every other cell lethal, its
+    inscribed band 3 cells either side, a door at the top; the robot in the band beside
+    the wall: the plan leaves the band and goes round by the door."""
+    from my_summit_path_planning.global_planner import GlobalPlanner, GlobalPlannerConfig
+    from my_summit_path_planning.navfn import start_region
+    cm = Costmap2D(100, 90, 0.1)
+    cm.data[:70, 47:54] = cv.INSCRIBED_INFLATED_OBSTACLE
+    cm.data[:70:2, 50] = cv.LETHAL_OBSTACLE           # the wall's cells, with gaps between
+    start, goal = cm.map_to_world(48, 20), cm.map_to_world(60, 20)
+    assert cm.cost_at(*start) == cv.INSCRIBED_INFLATED_OBSTACLE
+    planner = NavFn(NavfnConfig(allow_unknown=False)) if kind == "navfn" else \
+        GlobalPlanner(GlobalPlannerConfig(allow_unknown=False))
+    r = planner.make_plan(cm, start, goal)
+    assert r.ok, r.reason
+    cells = np.floor((r.path - (cm.origin_x, cm.origin_y)) / cm.resolution).astype(int)
+    crossing = (cells[:, 0] >= 49) & (cells[:, 0] <= 51) & (cells[:, 1] < 70)
+    assert not crossing.any(), r.path[crossing][:3]       # round by the door, not through the wall
+    assert r.length > 2 * 4.9
+    # the region opened: the start's way out (2 cells to free space) and a little more
+    forbidden = cm.data >= cv.INSCRIBED_INFLATED_OBSTACLE
+    region = start_region(forbidden, cm.data == cv.LETHAL_OBSTACLE, (48, 20))
+    assert region[20, 48] and region[20, 47] and not region[:, 50:].any()
+    assert region.sum() <= 9 * 9

@@ -74,7 +74,7 @@ import cv2
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.geometry import transform_points, wrap_angle
 
 EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
 MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
@@ -993,6 +993,15 @@ class DWAPlanner:
 
     def is_goal_reached(self):
         return self.goal_reached
+
+    def reframe_plan(self, delta):
+        """The plan (as pruned) and goal heading re-expressed by the rigid transform delta
+        (x [m], y [m], yaw [rad]): the local frame moved against the plan's global frame
+        (transformGlobalPlan, each cycle). The goal latch and the pruning are kept."""
+        if self.plan is None:
+            return
+        self.plan = transform_points(self.plan, delta)
+        self.goal_yaw = float(wrap_angle(self.goal_yaw + delta[2]))
 
     # -- helpers ------------------------------------------------------------------------
     def _local_plan(self, pose, costmap):
