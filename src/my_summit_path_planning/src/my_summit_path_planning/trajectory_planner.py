@@ -85,9 +85,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from .dwa import DWAResult
+from .dwa import DWAResult, HeldPlan
 from .params import ParamError
-from summit_nav_common.geometry import transform_points, wrap_angle
+from summit_nav_common.geometry import wrap_angle
 
 PRUNE_DIST = 1.0            # [m] prunePlan drops plan points until one this near the robot
 STOPPED_VEL = 1e-2          # [m/s, rad/s] TrajectoryPlannerROS: below this the robot counts as stopped
@@ -732,7 +732,7 @@ def sign(v):
 
 
 # -- the planner ----------------------------------------------------------------------------
-class TrajectoryPlanner:
+class TrajectoryPlanner(HeldPlan):
     """base_local_planner's TrajectoryPlannerROS without ROS (nav_core's BaseLocalPlanner).
 
     config: TrajectoryPlannerConfig; footprint: costmap.Footprint (its padded polygon is
@@ -793,15 +793,6 @@ class TrajectoryPlanner:
 
     def is_goal_reached(self):
         return self.goal_reached
-
-    def reframe_plan(self, delta):
-        """The plan (as pruned) and goal heading re-expressed by the rigid transform delta
-        (x [m], y [m], yaw [rad]): the local frame moved against the plan's global frame
-        (transformGlobalPlan, each cycle). The goal latch and the pruning are kept."""
-        if self.plan is None:
-            return
-        self.plan = transform_points(self.plan, delta)
-        self.goal_yaw = float(wrap_angle(self.goal_yaw + delta[2]))
 
     def set_control_latency(self, seconds):
         """Accepted for DWAPlanner's interface [s]; the Trajectory Rollout planner plans for
