@@ -134,7 +134,8 @@ class TrajectoryPlannerConfig:
     xy_goal_tolerance: float = 0.1         # [m]
     yaw_goal_tolerance: float = 0.05       # [rad]
     latch_xy_goal_tolerance: bool = False  # once within xy tolerance, only rotate
-    dwa: bool = False                      # sample the window of one sim_period (else sim_time)
+    dwa: bool = True                       # sample the window of one sim_period (else sim_time); the
+                                           # real default (trajectory_planner_ros.cpp and the wiki: true)
     simple_attractor: bool = False         # score the squared distance to the plan's end only
     stop_time_buffer: float = 0.2          # [s] read by the real node, unused by its planner
 
