@@ -80,6 +80,9 @@ NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -
 
 START_REGION_SLACK = 4    # [cells] start_region spreads at least this far from the start
 START_REGION_MAX = 200    # [cells] a start deeper than this in a forbidden region opens all of it
+_NEIGHBOUR_DX = np.array([dx for dx, _ in NEIGHBOURS])
+_NEIGHBOUR_DY = np.array([dy for _, dy in NEIGHBOURS])
+
 
 @dataclass
 class NavfnConfig:
@@ -631,21 +634,22 @@ def start_region(forbidden, lethal, sc):
         img = blocked.astype(np.uint8)
         cv2.floodFill(img, mask, (int(sc[0]), int(sc[1])), 2, flags=8)
         return img == 2
-    shallow = blocked & (depth <= depth0 + 1e-6)
-    region = np.zeros((h, w), bool)
-    region[sc[1], sc[0]] = True
-    ys, xs = np.array([sc[1]]), np.array([sc[0]])
+    # Breadth-first from the start through the shallow cells, one ring of 8-neighbours per
+    # step; the frontier is a set (each cell once), so the work is that of the cells opened.
+    shallow = (blocked & (depth <= depth0 + 1e-6)).ravel()
+    region = np.zeros(h * w, bool)
+    front = np.array([sc[1] * w + sc[0]], dtype=np.int64)
+    region[front] = True
     for _ in range(max(START_REGION_SLACK, int(math.ceil(2.0 * depth0)))):
-        ny = (ys[:, None] + np.array([-1, -1, -1, 0, 0, 1, 1, 1])).ravel()
-        nx = (xs[:, None] + np.array([-1, 0, 1, -1, 1, -1, 0, 1])).ravel()
+        ny = (front[:, None] // w + _NEIGHBOUR_DY).ravel()
+        nx = (front[:, None] % w + _NEIGHBOUR_DX).ravel()
         ok = (ny >= 0) & (ny < h) & (nx >= 0) & (nx < w)
-        ny, nx = ny[ok], nx[ok]
-        new = shallow[ny, nx] & ~region[ny, nx]
-        ys, xs = ny[new], nx[new]
-        if len(ys) == 0:
+        cand = np.unique(ny[ok] * w + nx[ok])
+        front = cand[shallow[cand] & ~region[cand]]
+        if len(front) == 0:
             break
-        region[ys, xs] = True
-    return region
+        region[front] = True
+    return region.reshape(h, w)
 
 
 def _open_start_region(data, cell_cost, sc):
