@@ -33,10 +33,12 @@ $(BUILD_STAMP): $(PY_SOURCES)
 # The unit tests (pytest, no ROS master) and the integration tests (rostest, roslaunch,
 # Xvfb), all through pytest so the run ends with one pytest summary line. TEST_JOBS
 # pytest-xdist workers run them side by side (each rostest has its own master on a free
-# port); the longest integration tests go first (tests/conftest.py). TEST_JOBS=0: one process.
+# port); the longest integration tests go first (tests/conftest.py), and loadgroup hands
+# each worker one test at a time in that order (load would give one worker whole batches
+# of the list's head). TEST_JOBS=0: one process.
 TEST_JOBS ?= 2
 PYTEST := $(PYTHON) -m pytest -p no:cacheprovider -c tests/pytest.ini --rootdir=$(WS) \
-	$(if $(filter 0,$(TEST_JOBS)),,-n $(TEST_JOBS))
+	$(if $(filter 0,$(TEST_JOBS)),,-n $(TEST_JOBS) --dist loadgroup)
 test: build
 	@$(SOURCE_WS) $(PYTEST) $(PYTEST_ARGS)
 
