@@ -48,14 +48,14 @@ def simulator_speed(path):
     return float(m.group(1)) if m else None
 
 
-def test_param(path):
+def rostest_param(path):
     speed = simulator_speed(path)
     long = speed is not None and speed < LONG_BELOW_SPEED
     return pytest.param(path, id=case_id(path), marks=[pytest.mark.long] if long else [])
 
 
 @pytest.mark.integration
-@pytest.mark.parametrize("test_file", [test_param(p) for p in TEST_FILES])
+@pytest.mark.parametrize("test_file", [rostest_param(p) for p in TEST_FILES])
 def test_rostest(test_file, tmp_path):
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path))
     rc, out = run_bounded(rostest_command(test_file), env, TIMEOUT)
