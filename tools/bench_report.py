@@ -295,7 +295,7 @@ def rows_planning(res):
                         "repeats_median_ms": g["repeats_median_ms"],
                         "cells_expanded_median": g["cells_expanded_median"]},
                        f"<= NavFn's {n['median_ms']:.0f} ms", g["median_ms"] <= n["median_ms"]))
-        out.append(row("... path / exact grid geodesic: median (worst); with cost_factor 0.01 (the geometry alone)",
+        out.append(row("... path / exact grid geodesic: median (worst); with neutral_cost 255 (the geometry alone)",
                        f"{g['length_ratio_median']:.3f} ({g['length_ratio_max']:.3f}); "
                        f"{g['geometric_length_ratio_median']:.3f} ({g['geometric_length_ratio_max']:.3f})",
                        {k: g[k] for k in ("length_ratio_median", "length_ratio_max", "geometric_length_ratio_median",

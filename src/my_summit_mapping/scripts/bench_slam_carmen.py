@@ -12,7 +12,7 @@ Parameters (BENCH_PARAMS below): gmapping's defaults except
   - linearUpdate 0.2 m / angularUpdate 0.1 rad: the logs hold one scan every ~0.55 m /
     ~0.31 rad, so (nearly) every scan is used, as in the usual gmapping runs on these logs;
   - maxUrange 30 m (beyond that the 1-degree SICK beams are > 0.5 m apart); no-return
-    beams (81.83 m in Intel) stay free space up to maxUrange (maxRange 80 m);
+    readings (81.83 m in Intel) are beyond maxRange (80 m) and skipped, as gmapping does;
   - lskip 0 (only 180 beams, all are used).
 Usage: bench_slam_carmen.py [--logs intel aces] [--particles 30] [--seed 0]
                             [--json PATH] [--out DIR] [--set name=value ...]

@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 import pytest
-from numpy.testing import assert_array_equal
+from numpy.testing import assert_allclose, assert_array_equal
 
 from my_summit_mapping import grid as G
 from synthetic_world import ANGLES, ray_cast
@@ -140,3 +140,66 @@ def test_bresenham_float_division_is_exact():
     assert_array_equal(cells, expected)
     assert_array_equal(cells[np.r_[0, np.cumsum(n + 1)[:-1]]], start)     # lines start ...
     assert_array_equal(cells[np.cumsum(n + 1) - 1], stop)                  # ... and end right
+
+
+def test_compiled_tracing_matches_numpy_trace():
+    """integrate_scan (compiled, into the pool) adds exactly trace_scan's window, hit sums
+    included, also over patches shared with a copy (which stays unchanged)."""
+    pose = np.array([0.37, -0.21, 0.4])
+    ranges = ray_cast(pose)
+    ranges[::7] = np.nan
+    ranges[3::11] = np.inf                          # no return: skipped
+    ranges[5::13] = 12.0                            # beyond maxUrange: free up to it, no hit
+    res = 0.047
+    g = G.PatchGrid(res)
+    g.integrate_scan(pose + [0.2, 0.1, 0.3], ray_cast(pose + [0.2, 0.1, 0.3]), ANGLES, 8.0, 29.0)
+    before = g.copy()
+    ix0, iy0, counts = G.trace_scan(pose, ranges, ANGLES, 8.0, 29.0, res)
+    _, h, w = counts.shape
+    expected = before.read_layers(ix0, iy0, w, h) + counts
+    g.integrate_scan(pose, ranges, ANGLES, 8.0, 29.0)
+    assert_allclose(g.read_layers(ix0, iy0, w, h), expected, rtol=1e-6, atol=1e-6)
+    assert_array_equal(g.read_layers(ix0, iy0, w, h)[:G.SUM_X], expected[:G.SUM_X])   # counts exact
+    assert_allclose(before.read_layers(ix0, iy0, w, h), expected - counts, atol=1e-6)
+    assert g.bounds() is not None
+
+
+def test_mean_hit_point_and_skipped_no_returns():
+    g = G.PatchGrid(RES)
+    laser = np.array([0.01, 0.01, 0.0])
+    # two hits in cell (20, 0) at x = 1.012 and 1.032 (y = 0.01); +inf and 40 m (> maxRange 30) skipped
+    g.integrate_scan(laser, np.array([1.002, 1.022, np.inf, 40.0]), np.array([0.0, 0.0, 1.0, 2.0]), 10.0, 30.0)
+    assert g.mean_hit(20, 0) == pytest.approx((1.022, 0.01), abs=1e-6)
+    assert g.mean_hit(19, 0) is None
+    hits, visits = g.read_window(-300, -300, 600, 600)
+    assert hits.sum() == 2 and visits.sum() == 2 * 21      # only the two beams were traced
+
+
+def test_pool_slots_are_reused_when_maps_are_dropped():
+    g = G.PatchGrid(RES, G.PatchPool(4))
+    g.integrate_scan(np.array([0.0, 0.0, 0.0]), ray_cast((0.0, 0.0, 0.0)), ANGLES, 8.0, 30.0)
+    pool = g.pool
+    used = pool.used()
+    assert used == g.patch_count() > 4              # the pool grew past its 4 slots
+    copies = [g.copy() for _ in range(3)]
+    for c in copies:
+        c.integrate_scan(np.array([0.01, 0.01, 0.0]), np.array([0.5]), np.array([0.0]), 8.0, 30.0)
+    assert pool.used() == used + 3                   # one copied patch each
+    del copies, c
+    assert pool.used() == used                       # released when dropped
+    g.release()
+    assert pool.used() == 0 and g.patch_count() == 0
+
+
+def test_add_hits_marks_end_cells_only():
+    """gmapping's registerScan without generateMap: a hit (and its point) in each end
+    cell, nothing along the beam; beyond maxUrange or maxRange, +inf, NaN: skipped."""
+    g = G.PatchGrid(RES)
+    laser = np.array([0.01, 0.01, 0.0])
+    g.add_hits(laser, np.array([1.002, 1.022, 12.0, np.inf, np.nan, 0.0]), np.zeros(6), 10.0, 30.0)
+    hits, visits = g.read_window(-300, -300, 600, 600)
+    assert hits.sum() == 2 and visits.sum() == 2
+    assert g.read_window(20, 0, 1, 1)[0][0, 0] == 2
+    assert g.mean_hit(20, 0) == pytest.approx((1.022, 0.01), abs=1e-6)
+    g.add_hits(laser, np.array([10.0]), np.zeros(1), 10.0, 30.0)    # r == maxUrange: used
+    assert g.read_window(-300, -300, 600, 600)[0].sum() == 3

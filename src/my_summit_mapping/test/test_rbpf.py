@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from my_summit_mapping import carmen, metrics
-from my_summit_mapping.grid import OCCUPIED
+from my_summit_mapping import carmen, metrics, scan_matcher
+from my_summit_mapping.grid import OCCUPIED, PatchGrid
 from my_summit_mapping import rbpf as rbpf_module
-from my_summit_mapping.rbpf import RbpfSlam, low_variance_resample, normalized_weights, plausible_corrections
+from my_summit_mapping.rbpf import RbpfSlam, low_variance_resample, normalized_weights
 from my_summit_mapping.slam_config import SlamConfig
 from synthetic_world import ANGLES, ray_cast
 
@@ -114,6 +114,35 @@ def test_resampling_keeps_state_consistent():
     assert one <= slam.map_memory_bytes() <= 8 * one
 
 
+def _traced_lineage(slam, index):
+    """The best map's oracle: every processed scan of particle index's ancestry ray-traced
+    into a fresh grid, from the start."""
+    ref = PatchGrid(slam.config.delta)
+    for pose, (r, a, laser, max_range) in zip(slam._ancestry(index), slam._hist_scans):
+        lp = scan_matcher.laser_poses(pose[None, :], laser)[0]   # the same float operations
+        ref.integrate_scan(lp, r, a, slam.config.maxUrange, max_range)
+    return ref
+
+
+def test_published_map_traces_the_best_lineage_and_particle_maps_hold_end_points():
+    truth = _loop_path()[:60]
+    odom = carmen.make_drifted_odometry(truth, np.random.default_rng(10), 0.2, 0.05, 0.2, 0.2)
+    slam = RbpfSlam(_config(resampleThreshold=1.0, ogain=0.05), np.random.default_rng(12))  # lineages merge
+    _drive(slam, truth[:30], odom[:30])
+    slam.best_map()                                   # traces the common past once ...
+    _drive(slam, truth[30:], odom[30:])               # ... which keeps growing
+    grid = slam.best_map()
+    assert slam.resample_count > 0 and 0 < slam._render_upto < slam.update_count - 1
+    ref = _traced_lineage(slam, slam.best_particle())
+    ix0, iy0, ix1, iy1 = ref.bounds()
+    assert grid.bounds() == ref.bounds()
+    assert_allclose(grid.read_layers(ix0, iy0, ix1 - ix0, iy1 - iy0),
+                    ref.read_layers(ix0, iy0, ix1 - ix0, iy1 - iy0), rtol=1e-5, atol=1e-4)
+    # a particle's own map: hits only (every visited cell is a hit), no free cells
+    hits, visits = slam.maps[0].read_window(ix0, iy0, ix1 - ix0, iy1 - iy0)
+    assert visits.sum() > 0 and np.array_equal(hits, visits)
+
+
 def test_gating_and_temporal_update():
     slam = RbpfSlam(_config(linearUpdate=1.0, angularUpdate=0.5, temporalUpdate=2.0),
                     np.random.default_rng(12))
@@ -126,37 +155,27 @@ def test_gating_and_temporal_update():
     assert slam.update_count == 3
 
 
-def test_plausible_corrections_gate_in_the_predicted_frame():
-    predicted = np.tile([1.0, 2.0, math.pi / 2], (6, 1))      # heading +y: local x is world +y
-    std = np.array([0.011, 0.0033, 0.022])                     # 1.1 m ahead with the YAML's noise
-    offsets = np.array([[0.0, 0.04, 0.0],      # 4 cm ahead: within lstep, allowed
-                        [0.0, 0.20, 0.0],      # 20 cm ahead (the corridor slip): 18 stds
-                        [-0.06, 0.0, 0.0],     # 6 cm to the right: > 5 x 3.3 mm and > lstep
-                        [0.0, 0.0, 0.09],      # 0.09 rad: within 5 x 0.022
-                        [0.0, 0.0, -0.12],     # 0.12 rad: beyond
-                        [0.03, -0.03, 0.04]])  # small everywhere
-    ok = plausible_corrections(predicted, predicted + offsets, std, (0.05, 0.05))
-    assert ok.tolist() == [True, False, False, True, False, True]
-    # poor odometry (gmapping's default noise is ten times larger): the slip is plausible
-    assert plausible_corrections(predicted[1:2], predicted[1:2] + offsets[1], 10 * std, (0.05, 0.05))[0]
-
-
-def test_implausible_scan_match_keeps_the_odometry_sample(monkeypatch):
-    """A matcher result 0.3 m off the prediction (a slip along a featureless corridor) is
-    not taken: every particle stays where the motion model put it."""
-    slam = RbpfSlam(_config(), np.random.default_rng(14))
+def test_scan_match_below_minimum_score_keeps_the_odometry_sample(monkeypatch):
+    """gmapping's scanMatch: a matched pose whose score is not above minimumScore is not
+    taken; every particle stays where the motion model put it."""
+    slam = RbpfSlam(_config(minimumScore=1e9, resampleThreshold=0.0), np.random.default_rng(14))
     pose = np.array([0.0, 0.0, 0.0])
     slam.process(pose, _scan(pose), ANGLES, LASER, 0.0)
     real_optimize = rbpf_module.scan_matcher.optimize
+    moved = {}
 
-    def slipping(fields, poses, *args):
-        matched, scores = real_optimize(fields, poses, *args)
+    def shifted(tables, poses, *args):
+        matched, scores = real_optimize(tables, poses, *args)
+        moved["before"] = poses.copy()
         return matched + [0.3, 0.0, 0.0], scores
-    monkeypatch.setattr(rbpf_module.scan_matcher, "optimize", slipping)
+    monkeypatch.setattr(rbpf_module.scan_matcher, "optimize", shifted)
     nxt = np.array([0.25, 0.0, 0.0])
     slam.process(nxt, _scan(nxt), ANGLES, LASER, 0.5)
     assert slam.update_count == 2
-    assert np.abs(slam.poses[:, 0] - 0.25).max() < 0.05       # odometry samples, not +0.3
+    assert_allclose(slam.poses, moved["before"])             # odometry samples, not +0.3
+    slam.config.minimumScore = 0.0
+    slam.process(nxt + [0.25, 0, 0], _scan(nxt + [0.25, 0, 0]), ANGLES, LASER, 1.0)
+    assert np.all(slam.poses[:, 0] - moved["before"][:, 0] > 0.2)   # now the match is taken
 
 
 def test_robust_input():
@@ -181,6 +200,10 @@ def test_default_max_range_from_scan_range_max():
     slam = RbpfSlam(_config(maxRange=None, maxUrange=30.0), np.random.default_rng(14))
     pose = np.zeros(3)
     ranges = np.full(ANGLES.shape, 10.0)
-    slam.process(pose, ranges, ANGLES, LASER, range_max=10.0)   # all at range_max: no returns
+    slam.process(pose, ranges, ANGLES, LASER, range_max=10.0)   # all at range_max: no returns,
+    data, *_ = slam.occupancy_grid()                             # > maxRange: skipped (registerScan)
+    assert np.sum(data == OCCUPIED) == 0 and np.sum(data == 0) == 0
+    slam = RbpfSlam(_config(maxRange=None, maxUrange=30.0), np.random.default_rng(14))
+    slam.process(pose, np.full(ANGLES.shape, 9.0), ANGLES, LASER, range_max=10.0)
     data, *_ = slam.occupancy_grid()
-    assert np.sum(data == OCCUPIED) == 0 and np.sum(data == 0) > 0
+    assert np.sum(data == OCCUPIED) > 0 and np.sum(data == 0) > 0

@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """Benchmark of the path-planning core (no ROS): NavFn, GlobalPlanner, one DWA cycle, closed loop.
 
-1. NavFn, and global_planner/GlobalPlanner (default parameters) with Dijkstra and with
-   A*, on willow-full-0.05 between the same far-apart free cells: median plan time over
-   seeded pairs, and the path length against the exact 8-connected grid geodesic (for
-   GlobalPlanner also with cost_factor 0.01: the path geometry alone).
+1. NavFn, and global_planner/GlobalPlanner (default parameters but the course's NavfnROS
+   allow_unknown and default_tolerance, as NavFn has them: both plan over the cells the
+   geodesic counts) with Dijkstra and with A*, on willow-full-0.05 between the same
+   far-apart free cells: median plan time over seeded pairs, and the path length against
+   the exact 8-connected grid geodesic (for GlobalPlanner also with neutral_cost 255,
+   every passable cell weighing the same: the path geometry alone).
 2. One DWA control cycle (the course's sample counts) on a local costmap: median time.
 3. Closed loop in summit_xl_sim.sim.Simulation with ground-truth pose: global costmap
    (static + obstacle + inflation) + a global planner (replanning at planner_frequency)
@@ -22,9 +24,11 @@
                       trajectory     base_local_planner/TrajectoryPlannerROS, dwa false
                       trajectory-dwa base_local_planner/TrajectoryPlannerROS, dwa true
    GlobalPlanner gets the course's NavfnROS allow_unknown and default_tolerance, its other
-   parameters default; TrajectoryPlannerROS is configured as the course's
-   navigation_stage lesson (TRAJECTORY_PARAMS). --matrix runs every combination over the
-   same pairs and prints a table; each combination is one JSON key (combination_key).
+   parameters default; the local planners run with the config's namespaces
+   (TrajectoryPlannerROS: base_local_planner_params.yaml, the navigation_stage lesson's
+   values with the Summit's turning limits and the planner's sim_time), the dwa flag from
+   the option. --matrix runs every combination over the same pairs and prints a table;
+   each combination is one JSON key (combination_key).
 
 Parameters come from the package's config/*.yaml. Usage:
   bench_planning_core.py [--runs 50] [--willow-runs 20] [--repeats 3] [--json PATH]
@@ -66,17 +70,6 @@ MIN_PAIR_DIST = 2.0       # [m] closed-loop start-goal distance at least
 FAR_PAIR_DIST = 25.0      # [m] NavFn benchmark pairs at least this far apart
 TIME_LIMIT_FACTOR = 6.0   # a run fails after this x optimal time ...
 TIME_LIMIT_MIN = 40.0     # ... but never before this [s] of simulated time
-# TrajectoryPlannerROS as navigation_tutorials' navigation_stage/move_base_config/
-# base_local_planner_params.yaml sets it (the course's multi-robot lesson), deprecated
-# names and all, but holonomic_robot false: the simulated Summit XL drives as a diff
-# drive unless told otherwise. dwa comes from --local-planner.
-TRAJECTORY_PARAMS = {
-    "acc_lim_th": 3.2, "acc_lim_x": 2.5, "acc_lim_y": 2.5, "max_vel_x": 0.65, "min_vel_x": 0.1,
-    "max_rotational_vel": 1.0, "min_in_place_rotational_vel": 0.4, "backup_vel": -0.1,
-    "holonomic_robot": False, "y_vels": [-0.3, -0.1, 0.1, -0.3], "xy_goal_tolerance": 0.1,
-    "yaw_goal_tolerance": 0.05, "sim_time": 1.7, "sim_granularity": 0.025, "vx_samples": 3,
-    "vtheta_samples": 20, "goal_distance_bias": 0.8, "path_distance_bias": 0.6, "occdist_scale": 0.01,
-    "heading_lookahead": 0.325, "oscillation_reset_dist": 0.05, "prune_plan": True}
 # The closed loop's planners: option -> (move_base type string, its namespace's parameters
 # over the config's). GlobalPlanner also gets COURSE_GLOBAL_PARAMS from the config's NavfnROS.
 GLOBAL_KINDS = {
@@ -85,10 +78,10 @@ GLOBAL_KINDS = {
     "dijkstra": ("global_planner/GlobalPlanner", {"use_dijkstra": True}),
 }
 COURSE_GLOBAL_PARAMS = ("allow_unknown", "default_tolerance")  # the course's choices for any global planner
-LOCAL_KINDS = {
+LOCAL_KINDS = {   # each with the config's namespace (TrajectoryPlannerROS: base_local_planner_params.yaml)
     "dwa": ("dwa_local_planner/DWAPlannerROS", {}),
-    "trajectory": ("base_local_planner/TrajectoryPlannerROS", dict(TRAJECTORY_PARAMS, dwa=False)),
-    "trajectory-dwa": ("base_local_planner/TrajectoryPlannerROS", dict(TRAJECTORY_PARAMS, dwa=True)),
+    "trajectory": ("base_local_planner/TrajectoryPlannerROS", {"dwa": False}),
+    "trajectory-dwa": ("base_local_planner/TrajectoryPlannerROS", {"dwa": True}),
 }
 GLOBAL_PLANNERS, LOCAL_PLANNERS = tuple(GLOBAL_KINDS), tuple(LOCAL_KINDS)
 WORLDS = (("builtin", BUILTIN), ("willow", WILLOW))   # JSON key part, map
@@ -159,17 +152,20 @@ def bench_navfn(params, n_pairs, seed=0, cm=None, pairs=None):
     return bench_plans(NavFn(params.navfn), cm, pairs, "NavFn")
 
 
-def bench_global_planner(use_dijkstra, cm, pairs):
-    """global_planner/GlobalPlanner with its default parameters (A* when not use_dijkstra),
-    plus the same plans with cost_factor 0.01 (the path geometry without the costs)."""
-    planner = GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra))
+def bench_global_planner(use_dijkstra, cm, pairs, course=None):
+    """global_planner/GlobalPlanner with its default parameters (A* when not use_dijkstra)
+    but course's (a dict: the course's COURSE_GLOBAL_PARAMS), plus the same plans with
+    neutral_cost 255 (every passable cell then costs lethal_cost - 1: the path geometry
+    without the costs)."""
+    course = dict(course or {})
+    planner = GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra, **course))
     out = bench_plans(planner, cm, pairs, "GlobalPlanner")
     cells = []
     for a, b, _ in pairs:
         planner.make_plan(cm, cm.map_to_world(a[1], a[0]), cm.map_to_world(b[1], b[0]))
         cells.append(planner.cells_expanded)
     out["cells_expanded_median"] = float(np.median(cells))
-    geometric = bench_plans(GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra, cost_factor=0.01)),
+    geometric = bench_plans(GlobalPlanner(GlobalPlannerConfig(use_dijkstra=use_dijkstra, neutral_cost=255, **course)),
                             cm, pairs, "GlobalPlanner")
     out["geometric_length_ratio_median"] = geometric["length_ratio_median"]
     out["geometric_length_ratio_max"] = geometric["length_ratio_max"]
@@ -347,9 +343,12 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
                 fails += 1
                 stuck += 1
                 if stuck * period >= p.move_base.controller_patience:
-                    # move_base would start its recoveries here: the aggressive reset of the
-                    # obstacle layers (the rotations are left to the node), then a new plan.
-                    clear_costmap_layers(loc, pose[:2], 0.0, ("obstacle_layer",), force_clear_all=True)
+                    # move_base would start its recoveries here: the aggressive reset of both
+                    # costmaps' obstacle layers (clear_costmap_recovery's affected_maps "both";
+                    # the rotations are left to the node), then a new plan.
+                    for costmap in (loc, g):
+                        clear_costmap_layers(costmap, pose[:2], 0.0, ("obstacle_layer",), force_clear_all=True)
+                    g.update_map(*pose)
                     recoveries += 1
                     stuck = 0
                     r = planner.make_plan(cm, pose[:2], (gx, gy))
@@ -443,10 +442,11 @@ def main(argv=None):
         pairs = far_pairs(cm, args.navfn_pairs, args.seed)
         repeats = max(1, args.repeats)
         navs, dijs, astars = [], [], []
+        course = {k: v for k, v in params.namespace("NavfnROS").items() if k in COURSE_GLOBAL_PARAMS}
         for _ in range(repeats):  # interleaved, so that each planner sees the same load
             navs.append(bench_navfn(params, args.navfn_pairs, cm=cm, pairs=pairs))
-            dijs.append(bench_global_planner(True, cm, pairs))
-            astars.append(bench_global_planner(False, cm, pairs))
+            dijs.append(bench_global_planner(True, cm, pairs, course))
+            astars.append(bench_global_planner(False, cm, pairs, course))
         for key, runs, name in (("navfn_willow", navs, "NavFn"),
                                 ("global_planner_dijkstra_willow", dijs, "GlobalPlanner Dijkstra"),
                                 ("global_planner_astar_willow", astars, "GlobalPlanner A*")):
@@ -457,7 +457,7 @@ def main(argv=None):
             n["cpu_median_ms"] = float(np.median([r["cpu_median_ms"] for r in runs]))
             out[key] = n
             extra = "" if "cells_expanded_median" not in n else \
-                (f"; {n['cells_expanded_median']:.0f} cells expanded (median); with cost_factor 0.01: path / "
+                (f"; {n['cells_expanded_median']:.0f} cells expanded (median); with neutral_cost 255: path / "
                  f"geodesic median {n['geometric_length_ratio_median']:.3f}, max {n['geometric_length_ratio_max']:.3f}")
             print(f"{name} willow-full-0.05: median {n['median_ms']:.0f} ms wall, {n['cpu_median_ms']:.0f} ms CPU "
                   f"(repeats {n['repeats_median_ms']}; "

@@ -62,7 +62,8 @@ def test_local_planner_of_each_kind_is_built_by_type_and_max_vel_x_reaches_it(pa
     if cls is DWAPlanner:
         assert base.config.max_vel_x == params.dwa.max_vel_x == 1.0 and fast.config.max_vel_trans == 1.5
     else:
-        assert base.config.max_vel_x == bench.TRAJECTORY_PARAMS["max_vel_x"]
+        assert base.config.max_vel_x == params.namespace("TrajectoryPlannerROS")["max_vel_x"] == 0.65
+        assert base.config.max_vel_theta == 3.0 and base.config.sim_time == 1.0   # the config's, not defaults
         assert base.config.dwa is dwa_flag
     assert params.dwa.max_vel_x == 1.0  # the loaded parameters are left as they were
 

@@ -385,6 +385,39 @@ def test_boxed_in_corner_backs_out(footprint):
     assert max(p[0] for p in poses) > 1.0, poses[-1]   # out of the corner, no contact (run checks)
 
 
+def test_boxed_in_with_the_plan_ahead_backs_straight_out(footprint):
+    """Boxed in (escape_admissibility's first fallback): nose 0.27 m from a wall, its left
+    side pressed against another (the marked cells reach a centimetre into the outline, as
+    laser marks reach past the surface), the plan turning off to the right ahead. Every
+    turn sweeps a corner into a wall, every forward move closes on the front one, and
+    backing up parallel to the side wall regains no clearance and leads away from the plan,
+    so the ordinary escape rules (regain back_out, or go back along the plan) and the
+    creep-back fallback (regain creep_back by the stop) admit nothing. The fallback admits
+    reversing that loses no clearance: the robot backs straight out along the wall. The
+    corner of test_boxed_in_corner_backs_out had the same rule behind it when it was added
+    (23f6691), but its plan lies behind the robot, which the along-the-plan rule admits since;
+    with this fallback removed the robot here gets no command in 119 of 120 cycles."""
+    from my_summit_path_planning.navfn import resample_path
+    front, side = 0.36 + 0.27, 0.31 + 0.035
+    # robot at (0, 0) facing -x: the wall ahead at x <= -front, the side wall (its left) at
+    # y <= -side from the front wall to 1.5 m behind it; the plan goes off to the right (+y)
+    m = local_costmap(footprint, [(-front - 0.3, -3.0, -front, 3.0), (-front, -side - 0.3, 1.5, -side)])
+    planner = DWAPlanner(DWAConfig(**dict(CFG, xy_goal_tolerance=0.10, yaw_goal_tolerance=0.06)), footprint)
+    planner.set_plan(resample_path(np.array([(0.0, 0.0), (0.0, 1.0), (0.3, 2.5)]), 0.025), 0.0)
+    clear = clearance_of(planner, m)
+    pose, vel = (0.0, 0.0, math.pi), (0.0, 0.0, 0.0)
+    c0 = clear(pose)
+    assert -0.05 < c0 < 0.0                  # pressed into the side wall's marks
+    for _ in range(60):
+        r = planner.compute_velocity(pose, vel, m)
+        assert r.ok and r.mode == "escape", r.reason
+        assert r.cmd[0] < 0.0                # backing out
+        vel = r.cmd
+        pose = advance(pose, vel)
+        assert clear(pose) >= c0 - ESCAPE_TOL   # along the wall, not into it
+    assert pose[0] > 0.3 and abs(pose[1]) < 0.02, pose
+
+
 def test_late_control_loop_brakes_in_time(footprint):
     """A loaded machine: each command stays in force 0.4 s (8 periods), the robot tracks it
     within its acceleration limits. Told the measured latency (move_base measures it), DWA

@@ -110,11 +110,12 @@ def test_astar_plans_the_dijkstra_path_on_random_costmaps(quadratic):
         data[:, 25] = np.where(rng.random(50) < 0.7, cv.LETHAL_OBSTACLE, data[:, 25])  # a porous wall
         cm = Costmap2D(60, 50, 0.1)
         cm.data[:] = data
-        cost = planner_costs(data)
+        cost = planner_costs(data, cost_factor=1.0)
         free = np.argwhere(np.isfinite(cost[1:-1, 1:-1])) + 1
         a, b = free[rng.integers(len(free))], free[rng.integers(len(free))]
         start, goal = cm.map_to_world(a[1], a[0]), cm.map_to_world(b[1], b[0])
-        dij = GlobalPlanner(GlobalPlannerConfig(use_quadratic=quadratic))
+        # A*'s cells weigh the raw cost (AStarExpansion): Dijkstra's with cost_factor 1
+        dij = GlobalPlanner(GlobalPlannerConfig(use_quadratic=quadratic, cost_factor=1.0))
         ast = GlobalPlanner(GlobalPlannerConfig(use_quadratic=quadratic, use_dijkstra=False))
         rd, ra = dij.make_plan(cm, start, goal), ast.make_plan(cm, start, goal)
         assert rd.ok == ra.ok, (rd.reason, ra.reason)
@@ -278,19 +279,21 @@ def _through_direct_gap(r):
     return bool((r.path[at_wall, 1] < 1.25).all())
 
 
-@pytest.mark.parametrize("params, direct", [
-    ({}, False),                                        # 5 x (40 x 3) > the detour's ~2.7 cells x 50
-    ({"cost_factor": 0.1}, True),                       # 5 x 4 < 2.7 x 50
-    ({"neutral_cost": 255}, True),                      # 5 x 120 < 2.7 x 255
-    ({"cost_factor": 0.1, "lethal_cost": 40}, False),   # cost 40 >= lethal_cost - 1: forbidden
+@pytest.mark.parametrize("params, direct, astar_direct", [
+    ({}, False, False),                                      # 5 x (40 x 3) and 5 x 40 > the detour's ~2.7 x 50
+    ({"cost_factor": 0.1}, True, False),                     # 5 x 4 < 2.7 x 50; A* weighs the raw 40
+    ({"neutral_cost": 255}, True, True),                     # 5 x 120 and 5 x 40 < 2.7 x 255
+    ({"cost_factor": 0.1, "lethal_cost": 40}, False, False),  # cost 40 >= lethal_cost - 1: forbidden
 ])
-def test_lethal_neutral_and_cost_factor_choose_the_route(params, direct):
+def test_lethal_neutral_and_cost_factor_choose_the_route(params, direct, astar_direct):
+    """Dijkstra weighs a cell c * cost_factor + neutral_cost, A* (AStarExpansion) c +
+    neutral_cost whatever cost_factor says."""
     cm = _two_gaps()
-    for use_dijkstra in (True, False):
+    for use_dijkstra, expect in ((True, direct), (False, astar_direct)):
         planner = GlobalPlanner.from_params(dict(params, use_dijkstra=use_dijkstra))
         r = planner.make_plan(cm, (0.25, 1.05), (3.75, 1.05))
         assert r.ok, r.reason
-        assert _through_direct_gap(r) == direct
+        assert _through_direct_gap(r) == expect, use_dijkstra
 
 
 def test_allow_unknown_false_refuses_unknown_space():

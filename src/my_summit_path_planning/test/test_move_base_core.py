@@ -12,6 +12,7 @@ from my_summit_path_planning.move_base_core import (CLEARING, CONTROLLING, PLANN
 from my_summit_path_planning.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from my_summit_path_planning.params import MoveBaseConfig
 from my_summit_path_planning.recovery import RecoveryStep
+from summit_nav_common.geometry import transform_points
 
 DT = 0.05   # [s] control period of the fake clock (20 Hz)
 PLAN = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
@@ -36,6 +37,12 @@ class FakeLocal:
 
     def set_plan(self, plan, goal_yaw):
         self.plans.append((np.array(plan), goal_yaw))
+        self.held = self.plans[-1]
+
+    def reframe_plan(self, delta):
+        plan, yaw = self.held
+        self.held = (transform_points(plan, delta), yaw + delta[2])
+        self.reframes = getattr(self, "reframes", 0) + 1
 
     def compute_velocity_commands(self, pose, velocity, costmap):
         return Result(cmd=(0.3, 0.0, 0.0) if self.ok else (0.0, 0.0, 0.0), ok=self.ok, reason=self.reason)
@@ -117,6 +124,30 @@ def test_plan_then_control_then_goal_reached():
     r.pose = (1.95, 0.02, 0.5)
     out = r.cycle()
     assert out.end[0] == "succeeded" and "0.054 m from the goal" in out.end[1]
+
+
+def test_the_plan_follows_the_global_frame_every_cycle():
+    """transformGlobalPlan: with planner_frequency 0 (one plan per goal, the lesson's) the
+    plan the local planner holds is the global plan in the local frame of this cycle, as
+    amcl moves map -> odom while the robot drives. Expressed once per plan, the lesson's
+    goals ended up to 0.19 m off in the map (amcl's estimate) though xy_goal_tolerance is
+    0.1 m."""
+    r = Run()
+    r.goal()
+    r.plan()
+    r.cycle(g2l=(0.0, 0.0, 0.0))
+    assert len(r.local.plans) == 1
+    for g2l in ((0.1, -0.05, 0.0), (0.1, -0.05, 0.0), (0.25, 0.1, 0.03), (-0.4, 0.2, -0.2)):
+        out = r.cycle(g2l=g2l)
+        assert out.cmd == (0.3, 0.0, 0.0)
+        plan, yaw = r.local.held
+        np.testing.assert_allclose(plan, transform_points(PLAN, g2l), atol=1e-12)
+        assert yaw == pytest.approx(0.5 + g2l[2])
+    assert len(r.local.plans) == 1            # re-expressed, not handed again (latch, pruning kept)
+    assert r.local.reframes == 3              # only when the transform moved
+    outs = [r.cycle(g2l=None)]                # no transform: the plan stays as last expressed, said
+    assert outs[0].cmd == (0.3, 0.0, 0.0) and any("no transform" in t for _, t, _ in outs[0].logs)
+    np.testing.assert_allclose(r.local.held[0], transform_points(PLAN, (-0.4, 0.2, -0.2)), atol=1e-12)
 
 
 def test_a_fresh_local_planner_each_goal_and_stale_plans_dropped():
@@ -321,3 +352,46 @@ def test_goal_blocked_only_by_sensed_marks_is_not_blocked_by_the_map():
     assert blocked_by_map([grid], (0.1, 0.1), 0.31, False)
     assert not blocked_by_map([grid], (0.1, 0.1), 0.05, True)
     assert blocked_by_map([grid], (5.0, 1.0), 0.31, True)   # off the map
+
+
+@pytest.mark.parametrize("local_type", ["dwa_local_planner/DWAPlannerROS", "base_local_planner/TrajectoryPlannerROS"])
+def test_goal_reached_in_the_map_while_the_localization_corrects(local_type):
+    """The real local planners under the core, the robot driven by its commands (ideal
+    kinematics) in odom; midway amcl corrects map -> odom by 0.15 m / 0.05 rad (the
+    lesson's corrections were up to 0.19 m). The goal is reached where it is in the map.
+    With the plan expressed in odom once per plan (planner_frequency 0) the robot stopped
+    where the goal had been in odom, 0.16 m off in the map."""
+    from my_summit_path_planning.costmap import Footprint
+    from my_summit_path_planning.params import load_move_base_params
+    from my_summit_path_planning.plugins import MoveBasePlugins
+    from summit_nav_common.geometry import compose, inverse
+    import dataclasses
+    import os
+    p = load_move_base_params(os.path.join(os.path.dirname(__file__), "..", "config"))
+    p = dataclasses.replace(p, move_base=dataclasses.replace(p.move_base, base_local_planner=local_type,
+                                                             planner_frequency=0.0))
+    fp = Footprint.from_params([[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]], 0.46, 0.01)
+    plugins = MoveBasePlugins(p, footprint=fp)
+    core = MoveBaseCore(p.move_base, plugins.make_local_planner, [])
+    costmap = Costmap2D(140, 140, 0.05, -3.5, -3.5)       # free: only the frames matter here
+    goal = (2.0, 0.5, 0.0)                                  # map
+    g2l = np.zeros(3)                                       # map -> odom: identity until corrected
+    local = np.zeros(3)                                     # the robot in odom
+    vel, now, dt = (0.0, 0.0, 0.0), 0.0, 0.05
+    core.start_goal(goal, now)
+    plan = np.column_stack([np.linspace(0.0, goal[0], 41), np.linspace(0.0, goal[1], 41)])
+    core.on_plan(core.plan_request()[0], plan, "", now)
+    for k in range(600):
+        if k == 20:
+            g2l = np.array([0.15, -0.02, 0.05])             # amcl's correction: the map moves in odom
+        global_pose = tuple(compose(inverse(g2l), local))
+        out = core.cycle(now, global_pose, tuple(local), vel, costmap, tuple(g2l))
+        if out.end is not None:
+            break
+        vel = out.cmd if out.cmd is not None else (0.0, 0.0, 0.0)
+        local = compose(local, np.array(vel) * dt)
+        now += dt
+    assert out.end is not None and out.end[0] == "succeeded", out
+    g = compose(inverse(g2l), local)
+    tol = plugins.make_local_planner().config.xy_goal_tolerance
+    assert math.hypot(g[0] - goal[0], g[1] - goal[1]) <= tol + 0.02

@@ -114,3 +114,105 @@ def test_unreachable_goal():
     cm.data[:, 15] = cv.LETHAL_OBSTACLE
     r = NavFn().make_plan(cm, (0.5, 0.5), (2.5, 2.5))
     assert not r.ok and "not reachable" in r.reason
+
+
+@pytest.mark.parametrize("kind", ["navfn", "global_planner"])
+def test_a_start_in_a_wall_band_leaves_it_but_does_not_cut_through_the_wall(kind):
+    """Field failure (closed-loop bench, willow-full-0.05, pair 20): the robot's centre in
+    an inscribed cell (laser marks in a doorway) opened the whole connected inscribed
+    region to the planner; along walls those bands join up, and between the cells of a
+    wall drawn with gaps they join both sides: the plan led through the wall, DWA could not
+    follow it, and the goal timed out. Here a wall of every other cell lethal, its
+    inscribed band 3 cells either side, a door at the top; the robot in the band beside
+    the wall: the plan leaves the band and goes round by the door."""
+    from my_summit_path_planning.global_planner import GlobalPlanner, GlobalPlannerConfig
+    from my_summit_path_planning.navfn import start_region
+    cm = Costmap2D(100, 90, 0.1)
+    cm.data[:70, 47:54] = cv.INSCRIBED_INFLATED_OBSTACLE
+    cm.data[:70:2, 50] = cv.LETHAL_OBSTACLE           # the wall's cells, with gaps between
+    start, goal = cm.map_to_world(48, 20), cm.map_to_world(60, 20)
+    assert cm.cost_at(*start) == cv.INSCRIBED_INFLATED_OBSTACLE
+    planner = NavFn(NavfnConfig(allow_unknown=False)) if kind == "navfn" else \
+        GlobalPlanner(GlobalPlannerConfig(allow_unknown=False))
+    r = planner.make_plan(cm, start, goal)
+    assert r.ok, r.reason
+    cells = np.floor((r.path - (cm.origin_x, cm.origin_y)) / cm.resolution).astype(int)
+    crossing = (cells[:, 0] >= 49) & (cells[:, 0] <= 51) & (cells[:, 1] < 70)
+    assert not crossing.any(), r.path[crossing][:3]       # round by the door, not through the wall
+    assert r.length > 2 * 4.9
+    # the region opened: the start's way out (2 cells to free space) and a little more
+    forbidden = cm.data >= cv.INSCRIBED_INFLATED_OBSTACLE
+    region = start_region(forbidden, cm.data == cv.LETHAL_OBSTACLE, (48, 20))
+    assert region[20, 48] and region[20, 47] and not region[:, 50:].any()
+    assert region.sum() <= 9 * 9
+
+
+def start_region_reference(forbidden, lethal, sc):
+    """start_region's breadth-first part the slow, obvious way (a queue and a visited set),
+    on the same depths: the oracle."""
+    import collections
+    import cv2
+    from my_summit_path_planning.navfn import START_REGION_SLACK
+    h, w = forbidden.shape
+    depth = cv2.distanceTransform(forbidden.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    d0 = float(depth[sc[1], sc[0]])
+    steps = max(START_REGION_SLACK, int(math.ceil(2.0 * d0)))
+    region = np.zeros((h, w), bool)
+    region[sc[1], sc[0]] = True
+    queue = collections.deque([(sc[0], sc[1], 0)])
+    while queue:
+        x, y, k = queue.popleft()
+        if k == steps:
+            continue
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                nx, ny = x + dx, y + dy
+                if 0 <= nx < w and 0 <= ny < h and not region[ny, nx] and forbidden[ny, nx] \
+                        and not lethal[ny, nx] and depth[ny, nx] <= d0 + 1e-6:
+                    region[ny, nx] = True
+                    queue.append((nx, ny, k + 1))
+    return region
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_start_region_matches_a_plain_breadth_first_search(seed):
+    import cv2
+    from my_summit_path_planning.navfn import start_region
+    rng = np.random.default_rng(seed)
+    forbidden = np.zeros((60, 70), bool)
+    for _ in range(8):   # overlapping forbidden blocks, some lethal cells inside
+        x, y = rng.integers(0, 60), rng.integers(0, 50)
+        forbidden[y:y + rng.integers(5, 30), x:x + rng.integers(5, 30)] = True
+    lethal = forbidden & (rng.random(forbidden.shape) < 0.05)
+    # starts up to 6 cells deep (a regression to an exploding frontier stays seconds)
+    depth = cv2.distanceTransform(forbidden.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    cells = np.argwhere(forbidden & ~lethal & (depth <= 6))
+    for y, x in cells[rng.choice(len(cells), 5, replace=False)]:
+        npt.assert_array_equal(start_region(forbidden, lethal, (x, y)),
+                               start_region_reference(forbidden, lethal, (x, y)))
+
+
+def test_start_region_deep_in_a_forbidden_block_takes_no_time():
+    """Field failure (move_base_recovery_list.test at 4x, 3 of 10 runs): the robot boxed in
+    by a ring of boxes that are not in the map; amcl, seeing only the ring, lost its pose,
+    the ring's laser marks landed in the global costmap around wrong map poses, and the
+    robot's centre ended 7 to 23 cells deep in their inscribed band. start_region's
+    breadth-first frontier held a cell once per frontier neighbour that reached it, so it
+    multiplied at each of its 2 x depth steps (about 7x per cell of depth: 2 to 9 s at
+    depth 7, a minute and gigabytes at depth 8). The planner thread never came back from
+    make_plan: the goal stayed ACTIVE with nothing logged after the first 'no valid
+    command ... planning again', and the control loop, sharing the interpreter with it,
+    ran 0.13 s cycles instead of 0.05 s. Here the start 7 cells deep in a 100 x 100
+    forbidden block: the region it opens (as the plain breadth-first search's) in
+    milliseconds (0.5 s allowed)."""
+    import time
+    from my_summit_path_planning.navfn import start_region
+    forbidden = np.zeros((120, 120), bool)
+    forbidden[10:110, 10:110] = True
+    lethal = np.zeros_like(forbidden)
+    t0 = time.perf_counter()
+    region = start_region(forbidden, lethal, (60, 17))
+    took = time.perf_counter() - t0
+    npt.assert_array_equal(region, start_region_reference(forbidden, lethal, (60, 17)))
+    assert region.sum() == 264       # 7 cells from the edge, 14 steps: the block's rim up to depth 7
+    assert took < 0.5, f"start_region took {took:.1f} s at depth 7"

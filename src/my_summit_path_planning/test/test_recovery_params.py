@@ -226,7 +226,7 @@ def test_config_files_load():
     ("navfn_global_planner_params.yaml", "NavfnROS", "default_tolerance", -1.0, ">= 0"),
 ])
 def test_bad_params_are_named(tmp_path, fname, ns, key, value, match):
-    for f in (f for f in os.listdir(CONFIG) if f.endswith(".yaml")):  # the six files, not navigation_stage/
+    for f in (f for f in os.listdir(CONFIG) if f.endswith(".yaml")):  # the course's files, not navigation_stage/
         shutil.copy(os.path.join(CONFIG, f), tmp_path / f)
     doc = yaml.safe_load(open(tmp_path / fname))
     doc[ns][key] = value
@@ -236,7 +236,7 @@ def test_bad_params_are_named(tmp_path, fname, ns, key, value, match):
 
 
 def test_old_dwa_names_accepted(tmp_path):
-    for f in (f for f in os.listdir(CONFIG) if f.endswith(".yaml")):  # the six files, not navigation_stage/
+    for f in (f for f in os.listdir(CONFIG) if f.endswith(".yaml")):  # the course's files, not navigation_stage/
         shutil.copy(os.path.join(CONFIG, f), tmp_path / f)
     doc = yaml.safe_load(open(tmp_path / "dwa_local_planner_params.yaml"))
     doc["DWAPlannerROS"]["max_rot_vel"] = 2.0

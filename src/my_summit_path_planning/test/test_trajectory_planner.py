@@ -162,7 +162,7 @@ def test_corridor_drives_along_the_plan(fp):
     m = _costmap()
     _box(m, -3.5, -0.9, 3.5, -0.8)
     _box(m, -3.5, 0.8, 3.5, 0.9)
-    p = _planner(fp, holonomic_robot=False)
+    p = _planner(fp, holonomic_robot=False, dwa=False)   # Trajectory Rollout
     p.set_plan(np.column_stack([np.linspace(0.0, 3.4, 69), np.zeros(69)]), 0.0)
     r = p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
     assert r.ok and r.mode == "rollout"
@@ -174,7 +174,7 @@ def test_obstacle_ahead_turns_away(fp):
     """A block on the robot's line, the plan bending left round it: the robot turns left."""
     m = _costmap()
     _box(m, 0.7, -0.6, 1.0, 0.15)
-    p = _planner(fp, holonomic_robot=False, sim_time=1.7)
+    p = _planner(fp, holonomic_robot=False, sim_time=1.7, dwa=False)   # Trajectory Rollout
     s = np.linspace(0.0, 1.0, 41)
     plan = np.vstack([np.column_stack([0.4 * s, 0.8 * s ** 2]),
                       np.column_stack([np.linspace(0.4, 3.0, 53), np.full(53, 0.8)])])
@@ -288,7 +288,7 @@ def test_defaults_are_the_real_ones():
     assert (cfg.acc_lim_x, cfg.acc_lim_theta, cfg.max_vel_x, cfg.min_vel_x, cfg.max_vel_theta, cfg.min_vel_theta,
             cfg.min_in_place_vel_theta, cfg.escape_vel, cfg.sim_time, cfg.vx_samples, cfg.vtheta_samples) == \
         (2.5, 3.2, 0.5, 0.1, 1.0, -1.0, 0.4, -0.1, 1.0, 3, 20)
-    assert cfg.y_vels == (-0.3, -0.1, 0.1, 0.3) and cfg.holonomic_robot and not cfg.dwa
+    assert cfg.y_vels == (-0.3, -0.1, 0.1, 0.3) and cfg.holonomic_robot and cfg.dwa
     assert cfg.angular_granularity == cfg.sim_granularity == 0.025
     assert cfg.escape_reset_theta == pytest.approx(math.pi / 4) and cfg.sim_period == 0.05
     assert warnings == [tp.METER_SCORING_UNSET] and ignored == []

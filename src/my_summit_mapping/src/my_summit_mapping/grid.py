@@ -1,33 +1,40 @@
-"""Copy-on-write patched occupancy grid (gmapping's ScanMatcherMap, in numpy).
+"""Copy-on-write patched occupancy grid (gmapping's ScanMatcherMap), compiled with numba.
 
 Reference: Grisetti, Stachniss, Burgard 2007, "Improved Techniques for Grid Mapping with
 Rao-Blackwellized Particle Filters", IEEE T-RO 23(1); GMapping's HierarchicalArray2D
 (grid/harray2d.h: patches allocated on demand, shared between particles through
 reference-counted pointers) and PointAccumulator (grid/map.h: a cell's occupancy is
-hits / visits, the "frequency" model). Ray tracing as in ScanMatcher::registerScan:
+hits / visits, the "frequency" model). Ray tracing (integrate_scan) as in
+ScanMatcher::registerScan with generateMap true (the published map):
 every beam is traced on its own with a Bresenham line (GridLineTraversal) from the
 laser's cell to the end cell; each cell before the end gets one visit, the end cell of a
-beam that returned gets one hit and one visit.
+beam that returned gets one hit and one visit. `add_hits` is registerScan with
+generateMap false (the particles' maps, as slam_gmapping runs gmapping): end cells only.
 
-Counting per beam matters. With every cell counted at most once per scan (as this module
-did before), a free cell just in front of a wall that one noisy beam ends in scores
-1 hit / 1 visit for that scan although dozens of beams crossed it; near a wall face on a
-cell boundary (every wall of the simulator's grid world) laser noise does that all the
-time, the cells in front of the walls turned "occupied" (> FULLNESS_THRESHOLD) and the
-scan matcher's occupied bands grew by a cell towards where the robot happened to look
-from. Counted per beam, such a cell keeps a low frequency (1 / 30) and stays free.
+Each cell also sums the points where beams ended in it (PointAccumulator's acc), so the
+scan matcher can measure a beam's distance to the cell's mean hit point, not to its
+centre: gmapping's sub-cell resolution. The sums are kept relative to the cell's own
+corner (float32 stays precise however far the map reaches).
+
+Readings as registerScan takes them: a range that is NaN, <= 0 or > maxRange (a +inf "no
+return" among them) is skipped; one beyond maxUrange frees cells up to maxUrange and
+marks no hit.
+
+Counting per beam matters: with every cell counted at most once per scan, a free cell
+just in front of a wall that one noisy beam ends in would score 1 hit / 1 visit for that
+scan although dozens of beams crossed it; counted per beam it keeps a low frequency.
 
 Memory: the world is cut into PATCH_CELLS x PATCH_CELLS patches, allocated only where a
-beam passed. A patch is one float32 array (2, P, P): hits, visits = 32 KiB at 64 x 64
-(float32: a cell near the laser is crossed by up to every beam of every scan).
-`copy()` shares every patch; a patch is duplicated the first time one of the sharers
-writes to it (copy-on-write), so 100 particles whose lineages merged cost little more
-than one map.
+beam passed. All patches of a filter live in one PatchPool (an array of (LAYERS, P, P)
+float32 slots with reference counts): `copy()` shares every slot; a slot is duplicated
+the first time one of the sharers writes to it (copy-on-write), so 100 particles whose
+lineages merged cost little more than one map, and compiled code can read any
+particle's cells through a small table of slot numbers (patch_table).
 
-Ray tracing is vectorized over all beams of a scan (all Bresenham cells at once, counted
-with np.bincount into a scan-sized window), then the window is added into the patches it
-touches. `trace_scan_reference` is the slow, obvious per-beam version kept as the test
-oracle.
+Ray tracing (`PatchGrid.integrate_scan`) is compiled: the patches the scan's lines
+touch are made writable, then every beam's Bresenham line is walked into them
+(`_trace_into`). `trace_scan` is the vectorized numpy version into a window and
+`trace_scan_reference` the slow, obvious per-beam one: the test oracles.
 
 Cell (i, j) covers world x in [i*res, (i+1)*res), y in [j*res, (j+1)*res): the grid's
 origin is the world origin, indices may be negative. Arrays are indexed [row=y, col=x].
@@ -37,15 +44,18 @@ from fractions import Fraction
 from typing import Dict, Optional, Set, Tuple
 
 import numpy as np
+from summit_nav_common.jit import njit
 
 PATCH_SHIFT = 6                  # log2 of the patch side [cells]
 PATCH_CELLS = 1 << PATCH_SHIFT   # patch side, 64 cells = 3.2 m at 0.05 m [cells]
-HITS, VISITS = range(2)          # layers of a patch / a traced window
-LAYERS = 2                       # hits, visits [-]
-COUNT_LIMIT = 1 << 22            # float32 counts stay exact; both layers halved (keeps the
-                                 # frequency) before a cell's visits pass this [-]
+HITS, VISITS, SUM_X, SUM_Y = range(4)  # layers: hit and visit counts, sums of the hit points'
+                                 # offsets from the cell's lower-left corner [-, -, m, m]
+LAYERS = 4                       # layers of a patch / a traced window [-]
+COUNT_LIMIT = 1 << 22            # float32 counts stay exact; a patch's layers are halved (keeps
+                                 # frequencies and mean hit points) before a cell's visits pass this [-]
 FULLNESS_THRESHOLD = 0.1         # gmapping's m_fullnessThreshold: occupied for matching if hits/visits > this [-]
 PATCH_BYTES = LAYERS * 4 * PATCH_CELLS * PATCH_CELLS  # float32 layers [bytes]
+POOL_SLOTS = 256                 # initial PatchPool capacity; it doubles when full [patches]
 UNKNOWN = -1                     # OccupancyGrid value of a never-seen cell
 OCCUPIED = 100                   # OccupancyGrid value of an occupied cell
 FREE = 0                         # OccupancyGrid value of a free cell
@@ -53,28 +63,84 @@ FREE = 0                         # OccupancyGrid value of a free cell
 Key = Tuple[int, int]
 
 
-class PatchGrid:
-    """Occupancy grid made of on-demand (hits, visits) patches, shared copy-on-write.
+class PatchPool:
+    """Reference-counted storage of patches: slot s is store[s], (LAYERS, P, P) float32.
 
-    resolution: cell side [m]. Use `copy()` to give another particle the same map.
+    Grows by doubling (np.zeros: untouched slots cost no resident memory). Slots are
+    numbers, not views, so a grid stays valid when the store is reallocated.
     """
 
-    def __init__(self, resolution: float):
+    def __init__(self, capacity: int = POOL_SLOTS):
+        self.store = np.zeros((capacity, LAYERS, PATCH_CELLS, PATCH_CELLS), np.float32)
+        self.refs = np.zeros(capacity, np.int64)
+        self._free = list(range(capacity - 1, -1, -1))
+
+    def alloc(self, source: Optional[int] = None) -> int:
+        """A new slot with one reference, zeroed or a copy of slot `source`."""
+        if not self._free:
+            self._grow()
+        slot = self._free.pop()
+        if source is None:
+            self.store[slot] = 0.0
+        else:
+            self.store[slot] = self.store[source]
+        self.refs[slot] = 1
+        return slot
+
+    def release(self, slot: int) -> None:
+        """Drop one reference; the slot is reused once none is left."""
+        self.refs[slot] -= 1
+        if self.refs[slot] == 0:
+            self._free.append(slot)
+
+    def used(self) -> int:
+        """Slots in use [patches]."""
+        return len(self.refs) - len(self._free)
+
+    def _grow(self):
+        old = len(self.refs)
+        store = np.zeros((2 * old,) + self.store.shape[1:], np.float32)
+        store[:old] = self.store
+        self.store = store
+        self.refs = np.concatenate((self.refs, np.zeros(old, np.int64)))
+        self._free.extend(range(2 * old - 1, old - 1, -1))
+
+
+class PatchGrid:
+    """Occupancy grid made of on-demand (hits, visits, hit sums) patches, shared copy-on-write.
+
+    resolution: cell side [m]; pool: the PatchPool to keep patches in (a new one if None;
+    grids that share patches share the pool). Use `copy()` to give another particle the
+    same map and `release()` (or let it be garbage collected) when a map is dropped.
+    """
+
+    def __init__(self, resolution: float, pool: Optional[PatchPool] = None):
         if not resolution > 0.0:
             raise ValueError(f"grid resolution must be > 0 m, got {resolution!r}")
         self.resolution = float(resolution)
-        self._patches: Dict[Key, np.ndarray] = {}  # (py, px) -> (LAYERS, P, P) float32
-        self._owned: Set[Key] = set()              # patches only this grid references
+        self.pool = PatchPool() if pool is None else pool
+        self._patches: Dict[Key, int] = {}  # (py, px) -> pool slot
 
     # ----------------------------------------------------------------- sharing
     def copy(self) -> "PatchGrid":
         """A grid equal to this one sharing all patches (nothing is copied until written)."""
-        other = PatchGrid.__new__(PatchGrid)
-        other.resolution = self.resolution
+        other = PatchGrid(self.resolution, self.pool)
         other._patches = dict(self._patches)
-        other._owned = set()
-        self._owned = set()  # from now on both grids see the patches as shared
+        for slot in self._patches.values():
+            self.pool.refs[slot] += 1
         return other
+
+    def release(self) -> None:
+        """Give up this grid's patches (it is empty afterwards)."""
+        patches, self._patches = self._patches, {}
+        for slot in patches.values():
+            self.pool.release(slot)
+
+    def __del__(self):
+        try:
+            self.release()
+        except Exception:  # interpreter shutdown: the pool may be gone already
+            pass
 
     def patch_count(self) -> int:
         """Number of allocated patches this grid references."""
@@ -82,27 +148,41 @@ class PatchGrid:
 
     def owned_patch_count(self) -> int:
         """Number of patches this grid may write without copying."""
-        return len(self._owned)
+        return sum(1 for s in self._patches.values() if self.pool.refs[s] == 1)
 
     def patch_ids(self) -> Set[int]:
-        """Identities of the patch arrays referenced (to count shared memory once)."""
-        return {id(p) for p in self._patches.values()}
+        """Pool slots referenced (to count shared memory once)."""
+        return set(self._patches.values())
 
     def shares_patch_with(self, other: "PatchGrid", key: Key) -> bool:
         """True when both grids reference the very same patch memory at `key`."""
-        return key in self._patches and self._patches.get(key) is other._patches.get(key)
+        return (key in self._patches and self.pool is other.pool
+                and self._patches[key] == other._patches.get(key))
 
-    def _writable_patch(self, key: Key) -> np.ndarray:
-        patch = self._patches.get(key)
-        if patch is None:
-            patch = np.zeros((LAYERS, PATCH_CELLS, PATCH_CELLS), np.float32)
-        elif key not in self._owned:
-            patch = patch.copy()
+    def _writable_slot(self, key: Key) -> int:
+        slot = self._patches.get(key)
+        if slot is None:
+            slot = self.pool.alloc()
+        elif self.pool.refs[slot] > 1:
+            self.pool.release(slot)
+            slot = self.pool.alloc(source=slot)
         else:
-            return patch
-        self._patches[key] = patch
-        self._owned.add(key)
-        return patch
+            return slot
+        self._patches[key] = slot
+        return slot
+
+    def patch_table(self):
+        """(py0, px0, rows, cols, slots (rows*cols,) int64): the pool slot of patch
+        (py0 + r, px0 + c) at slots[r * cols + c], -1 where none is allocated."""
+        if not self._patches:
+            return 0, 0, 1, 1, np.full(1, -1, np.int64)
+        keys = np.array(list(self._patches.keys()), np.int64)
+        slots = np.fromiter(self._patches.values(), np.int64, len(self._patches))
+        (py0, px0), (py1, px1) = keys.min(axis=0), keys.max(axis=0)
+        rows, cols = int(py1 - py0 + 1), int(px1 - px0 + 1)
+        table = np.full(rows * cols, -1, np.int64)
+        table[(keys[:, 0] - py0) * cols + (keys[:, 1] - px0)] = slots
+        return int(py0), int(px0), rows, cols, table
 
     # ------------------------------------------------------------ coordinates
     def world_to_cell(self, xy: np.ndarray) -> np.ndarray:
@@ -128,13 +208,23 @@ class PatchGrid:
         return cells[HITS], cells[VISITS]
 
     def read_layers(self, ix0: int, iy0: int, width: int, height: int) -> np.ndarray:
-        """Both layers (LAYERS, height, width) float32 (hits, visits) of the cells from (ix0, iy0)."""
+        """All layers (LAYERS, height, width) float32 (HITS, VISITS, SUM_X, SUM_Y) of the
+        cells from (ix0, iy0)."""
         out = np.zeros((LAYERS, height, width), np.float32)
+        store = self.pool.store
         for key, (wy, wx, py, px, h, w) in _patch_slices(ix0, iy0, width, height):
-            patch = self._patches.get(key)
-            if patch is not None:
-                out[:, wy:wy + h, wx:wx + w] = patch[:, py:py + h, px:px + w]
+            slot = self._patches.get(key)
+            if slot is not None:
+                out[:, wy:wy + h, wx:wx + w] = store[slot, :, py:py + h, px:px + w]
         return out
+
+    def mean_hit(self, ix: int, iy: int) -> Optional[Tuple[float, float]]:
+        """World point (x, y) [m] that the hits of cell (ix, iy) average to; None without hits."""
+        cell = self.read_layers(ix, iy, 1, 1)[:, 0, 0]
+        if cell[HITS] <= 0.0:
+            return None
+        return (ix * self.resolution + float(cell[SUM_X]) / float(cell[HITS]),
+                iy * self.resolution + float(cell[SUM_Y]) / float(cell[HITS]))
 
     def add_window(self, ix0: int, iy0: int, counts: np.ndarray) -> None:
         """Add per-cell layers (LAYERS, h, w) (as trace_scan makes them) at cell (ix0, iy0).
@@ -146,10 +236,9 @@ class PatchGrid:
             win = counts[:, wy:wy + h, wx:wx + w]
             if not win[VISITS].any():
                 continue
-            patch = self._writable_patch(key)
+            patch = self.pool.store[self._writable_slot(key)]
             if float(patch[VISITS].max()) + float(win[VISITS].max()) > COUNT_LIMIT:
-                # Halve both counters: the frequency hits/visits is what matters.
-                patch *= 0.5
+                patch *= 0.5   # the frequency hits/visits and the mean hit point stay
             patch[:, py:py + h, px:px + w] += win
 
     # ------------------------------------------------------------ ray tracing
@@ -157,15 +246,46 @@ class PatchGrid:
                        max_urange: float, max_range: float) -> None:
         """Ray-trace one scan from laser_pose (x [m], y [m], theta [rad]) into the grid.
 
-        ranges (n,) [m], angles (n,) [rad] in the laser frame. A beam with a finite
-        range < max_urange and < max_range marks its end cell hit; a beam with no return
-        (NaN, inf, >= max_range) or longer than max_urange only frees cells up to
-        max_urange; beams with range <= 0 are ignored.
+        ranges (n,) [m], angles (n,) [rad] in the laser frame. A beam with a range <
+        max_urange (and <= max_range) marks its end cell hit at its end point; one in
+        [max_urange, max_range] only frees cells up to max_urange; a range that is NaN,
+        <= 0 or > max_range (+inf: no return) is skipped, as gmapping's registerScan does.
         """
-        ix0, iy0, counts = trace_scan(laser_pose, ranges, angles, max_urange, max_range,
-                                      self.resolution)
-        if counts.size:
-            self.add_window(ix0, iy0, counts)
+        laser_pose = np.asarray(laser_pose, float)
+        ends, is_hit = beam_endpoints(laser_pose, ranges, angles, max_urange, max_range)
+        if len(ends) == 0:
+            return
+        res = self.resolution
+        start = np.floor(laser_pose[:2] / res).astype(np.int64)
+        end_cells = np.floor(ends / res).astype(np.int64)
+        keys = _touched_patches(start, end_cells)
+        for py, px in keys:
+            self._writable_slot((int(py), int(px)))
+        py0, px0, rows, cols, table = self.patch_table()
+        _trace_into(self.pool.store, table, py0, px0, cols, start, end_cells, ends, is_hit, res,
+                    float(COUNT_LIMIT))
+
+    def add_hits(self, laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarray,
+                 max_urange: float, max_range: float) -> None:
+        """Mark only the end cells of one scan's returned beams (a hit, a visit and the end
+        point each), nothing along the beams: gmapping's registerScan with generateMap
+        false, how slam_gmapping builds its particles' maps. A beam is used when 0 < r <=
+        max_urange and r <= max_range.
+        """
+        laser_pose = np.asarray(laser_pose, float)
+        r = np.asarray(ranges, float)
+        with np.errstate(invalid="ignore"):
+            used = (r > 0.0) & (r <= max_urange) & (r <= max_range)
+        if not used.any():
+            return
+        a = laser_pose[2] + np.asarray(angles, float)[used]
+        ends = np.column_stack((laser_pose[0] + r[used] * np.cos(a), laser_pose[1] + r[used] * np.sin(a)))
+        cells = np.floor(ends / self.resolution).astype(np.int64)
+        for py, px in np.unique(cells[:, ::-1] >> PATCH_SHIFT, axis=0):
+            self._writable_slot((int(py), int(px)))
+        py0, px0, rows, cols, table = self.patch_table()
+        _add_hits_into(self.pool.store, table, py0, px0, cols, cells, ends, self.resolution,
+                       float(COUNT_LIMIT))
 
     # ------------------------------------------------------------------ output
     def occupancy_grid(self, occ_thresh: float,
@@ -182,9 +302,10 @@ class PatchGrid:
         width, height = ix1 - ix0, iy1 - iy0
         data = np.full((height, width), UNKNOWN, np.int8)
         for key, (wy, wx, py, px, h, w) in _patch_slices(ix0, iy0, width, height):
-            patch = self._patches.get(key)
-            if patch is None:
+            slot = self._patches.get(key)
+            if slot is None:
                 continue
+            patch = self.pool.store[slot]
             data[wy:wy + h, wx:wx + w] = occupancy_values(patch[HITS, py:py + h, px:px + w],
                                                           patch[VISITS, py:py + h, px:px + w], occ_thresh)
         return (data.reshape(-1), width, height, self.resolution,
@@ -209,7 +330,8 @@ class PatchGrid:
     def entropy(self) -> float:
         """Map entropy [nat]: sum over seen cells of the binary entropy of hits/visits."""
         total = 0.0
-        for patch in self._patches.values():
+        for slot in self._patches.values():
+            patch = self.pool.store[slot]
             total += float(cell_entropy(patch[HITS], patch[VISITS]).sum())
         return total
 
@@ -259,19 +381,17 @@ def cell_entropy(hits: np.ndarray, visits: np.ndarray) -> np.ndarray:
 
 def beam_endpoints(laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarray,
                    max_urange: float, max_range: float):
-    """Classify beams and compute ray ends in the world.
+    """Classify beams and compute ray ends in the world (gmapping's registerScan).
 
-    Returns (ends (K, 2) [m] of the used beams, is_hit (K,) bool): hit beams end at the
-    measured range, no-return or over-long beams end at max_urange, beams with a range
-    <= 0 are dropped.
+    Returns (ends (K, 2) [m] of the used beams, is_hit (K,) bool): a beam with 0 < r <=
+    max_range is used; it ends at r and is a hit when r < max_urange, else it ends at
+    max_urange. NaN, r <= 0 and r > max_range (+inf, no return) are dropped.
     """
     r = np.asarray(ranges, float)
     with np.errstate(invalid="ignore"):
-        valid = ~(r <= 0.0)                       # NaN stays valid: "no return"
-        no_return = ~np.isfinite(r) | (r >= max_range)
-    is_hit = valid & ~no_return & (r < max_urange)
-    used = valid
-    length = np.where(is_hit, r, max_urange)[used]
+        used = (r > 0.0) & (r <= max_range)          # False for NaN
+    is_hit = used & (r < max_urange)
+    length = np.minimum(r[used], max_urange)
     a = laser_pose[2] + np.asarray(angles, float)[used]
     ends = np.column_stack((laser_pose[0] + length * np.cos(a), laser_pose[1] + length * np.sin(a)))
     return ends, is_hit[used]
@@ -312,8 +432,9 @@ def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
     """Rasterize a scan into (ix0, iy0, counts (LAYERS, h, w) float32), patch-aligned.
 
     Per beam (gmapping's registerScan): the Bresenham line from the laser's cell to the end
-    cell; every cell but the last gets a visit; the end cell of a returned beam gets a hit
-    and a visit. A beam cut at max_urange leaves its last cell untouched, as in gmapping.
+    cell; every cell but the last gets a visit; the end cell of a returned beam gets a hit,
+    a visit and its end point (offset from the cell's corner) added to the sums. A beam cut
+    at max_urange leaves its last cell untouched, as in gmapping.
     """
     laser_pose = np.asarray(laser_pose, float)
     ends, is_hit = beam_endpoints(laser_pose, ranges, angles, max_urange, max_range)
@@ -335,8 +456,12 @@ def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
     size = width * height
     counts = np.zeros((LAYERS, height * width), np.float32)
     counts[VISITS] = np.bincount(flat[passing], minlength=size)
-    counts[HITS] = np.bincount(flat[last[is_hit]], minlength=size)
+    hit_cells = flat[last[is_hit]]
+    counts[HITS] = np.bincount(hit_cells, minlength=size)
     counts[VISITS] += counts[HITS]
+    offsets = ends[is_hit] - end_cells[is_hit] * resolution   # from the cell's corner [m]
+    counts[SUM_X] = np.bincount(hit_cells, weights=offsets[:, 0], minlength=size)
+    counts[SUM_Y] = np.bincount(hit_cells, weights=offsets[:, 1], minlength=size)
     return ix0, iy0, counts.reshape(LAYERS, height, width)
 
 
@@ -345,21 +470,21 @@ def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, reso
 
     For each beam, a plain Bresenham walk (one cell per step of the major axis, the minor
     coordinate rounded) from the laser's cell to the end cell. Returns a dict
-    {(ix, iy): [hits, visits]} as trace_scan's layers.
+    {(ix, iy): [hits, visits, sum_x, sum_y]} as trace_scan's layers.
     """
     laser_pose = np.asarray(laser_pose, float)
     out = {}
 
     def cell(key):
-        return out.setdefault(key, [0.0, 0.0])
+        return out.setdefault(key, [0.0] * LAYERS)
 
     x0 = math.floor(laser_pose[0] / resolution)
     y0 = math.floor(laser_pose[1] / resolution)
     for r, a in zip(ranges, angles):
         r = float(r)
-        if r <= 0.0:
+        if not 0.0 < r <= max_range:   # NaN, <= 0, beyond maxRange (+inf): skipped
             continue
-        returned = math.isfinite(r) and r < max_range and r < max_urange
+        returned = r < max_urange
         length = r if returned else max_urange
         th = laser_pose[2] + a
         ex = laser_pose[0] + length * math.cos(th)
@@ -374,4 +499,80 @@ def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, reso
             c = cell((x1, y1))
             c[HITS] += 1
             c[VISITS] += 1
+            c[SUM_X] += ex - x1 * resolution
+            c[SUM_Y] += ey - y1 * resolution
     return out
+
+
+# ------------------------------------------------------------ compiled tracing
+@njit(cache=True)
+def _line_cell(start, d, n, k, axis):
+    """Cell coordinate `axis` of step k of n on the Bresenham line start -> start + d
+    (bresenham_cells' rounding: floor((2 k d + n) / (2 n)), in integers)."""
+    if n == 0:
+        return start[axis]
+    return start[axis] + (2 * k * d[axis] + n) // (2 * n)
+
+
+@njit(cache=True)
+def _touched_patches(start, end_cells):
+    """Patch keys (M, 2) [py, px] the Bresenham lines from start (2,) to end_cells (B, 2) pass."""
+    lo_x, lo_y = start[0], start[1]
+    hi_x, hi_y = start[0], start[1]
+    for b in range(end_cells.shape[0]):
+        lo_x, hi_x = min(lo_x, end_cells[b, 0]), max(hi_x, end_cells[b, 0])
+        lo_y, hi_y = min(lo_y, end_cells[b, 1]), max(hi_y, end_cells[b, 1])
+    px0, py0 = lo_x >> PATCH_SHIFT, lo_y >> PATCH_SHIFT
+    cols, rows = (hi_x >> PATCH_SHIFT) - px0 + 1, (hi_y >> PATCH_SHIFT) - py0 + 1
+    mark = np.zeros(rows * cols, np.uint8)
+    d = np.empty(2, np.int64)
+    for b in range(end_cells.shape[0]):
+        d[0], d[1] = end_cells[b, 0] - start[0], end_cells[b, 1] - start[1]
+        n = max(abs(d[0]), abs(d[1]))
+        for k in range(n + 1):
+            x, y = _line_cell(start, d, n, k, 0), _line_cell(start, d, n, k, 1)
+            mark[((y >> PATCH_SHIFT) - py0) * cols + (x >> PATCH_SHIFT) - px0] = 1
+    idx = np.nonzero(mark)[0]
+    out = np.empty((len(idx), 2), np.int64)
+    for i in range(len(idx)):
+        out[i, 0] = idx[i] // cols + py0
+        out[i, 1] = idx[i] % cols + px0
+    return out
+
+
+@njit(cache=True)
+def _trace_into(store, table, py0, px0, cols, start, end_cells, ends, is_hit, resolution, count_limit):
+    """trace_scan's counting, straight into the pool's patches (every patch the lines pass
+    must be in `table` and writable). A patch whose cell would pass count_limit visits is
+    halved first."""
+    d = np.empty(2, np.int64)
+    for b in range(end_cells.shape[0]):
+        d[0], d[1] = end_cells[b, 0] - start[0], end_cells[b, 1] - start[1]
+        n = max(abs(d[0]), abs(d[1]))
+        last = n if is_hit[b] else n - 1     # a beam cut at maxUrange leaves its end cell alone
+        for k in range(last + 1):
+            x, y = _line_cell(start, d, n, k, 0), _line_cell(start, d, n, k, 1)
+            slot = table[((y >> PATCH_SHIFT) - py0) * cols + (x >> PATCH_SHIFT) - px0]
+            r, c = y & (PATCH_CELLS - 1), x & (PATCH_CELLS - 1)
+            if store[slot, VISITS, r, c] + 1.0 > count_limit:
+                store[slot] *= 0.5
+            store[slot, VISITS, r, c] += 1.0
+            if k == n:
+                store[slot, HITS, r, c] += 1.0
+                store[slot, SUM_X, r, c] += ends[b, 0] - x * resolution
+                store[slot, SUM_Y, r, c] += ends[b, 1] - y * resolution
+
+
+@njit(cache=True)
+def _add_hits_into(store, table, py0, px0, cols, cells, ends, resolution, count_limit):
+    """PatchGrid.add_hits' counting, straight into the pool's (writable) patches."""
+    for b in range(cells.shape[0]):
+        x, y = cells[b, 0], cells[b, 1]
+        slot = table[((y >> PATCH_SHIFT) - py0) * cols + (x >> PATCH_SHIFT) - px0]
+        r, c = y & (PATCH_CELLS - 1), x & (PATCH_CELLS - 1)
+        if store[slot, VISITS, r, c] + 1.0 > count_limit:
+            store[slot] *= 0.5
+        store[slot, VISITS, r, c] += 1.0
+        store[slot, HITS, r, c] += 1.0
+        store[slot, SUM_X, r, c] += ends[b, 0] - x * resolution
+        store[slot, SUM_Y, r, c] += ends[b, 1] - y * resolution

@@ -10,14 +10,15 @@ its own occupancy grid (grid.PatchGrid, shared copy-on-write). Per laser scan:
   2. only if the robot moved linearUpdate [m] or turned angularUpdate [rad] since the
      last processed scan (or temporalUpdate [s] passed), go on:
   3. scan-match each particle against its own map (scan_matcher.optimize) - the improved
-     proposal; keep the odometry pose if the score is <= minimumScore or the correction
-     is implausible under the motion model (plausible_corrections). A beam is matched
-     only to obstacle cells it can reach through known free space (DIRECTIONAL_MATCH);
+     proposal; keep the odometry pose if the score is <= minimumScore;
   4. add the scan's log-likelihood at the new pose to the particle's log weight;
   5. normalize: w_i ~ exp((l_i - l_max) / (ogain * N)); Neff = 1 / sum(w_i^2);
   6. if Neff < resampleThreshold * N: low-variance resampling (maps shared, log weights
      reset to 0);
-  7. ray-trace the scan into each particle's map at its pose.
+  7. add the scan's end points to each particle's map at its pose (slam_gmapping runs
+     gmapping with generateMap false: no ray tracing in the particles' maps).
+The published map (occupancy_grid) ray-traces every processed scan from the best
+particle's ancestry, as slam_gmapping's updateMap does.
 The best particle is the one with the largest cumulative log-likelihood (gmapping's
 weightSum); its map is the published map, its ancestry the trajectory.
 """
@@ -27,15 +28,10 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from . import motion_model, scan_matcher
-from .grid import PATCH_BYTES, PatchGrid
+from .grid import PATCH_BYTES, PatchGrid, PatchPool
 from .slam_config import SlamConfig
 
 RANGE_MAX_MARGIN = 0.01  # slam_gmapping's default maxRange = scan range_max - this [m]
-MATCH_GATE_SIGMAS = 5.0  # a scan-match correction beyond this many motion-model stds is rejected [-]
-MATCH_CHUNK_CELLS = 4_000_000  # field cells matched at once (8 per window cell when directional);
-                               # 8 bytes each -> <= 32 MB of fields [cells]
-DIRECTIONAL_MATCH = True       # match a beam only to obstacle cells it reaches through known free space
-                               # (scan_matcher.facing_masks; False: gmapping's plain endpoint fields)
 
 
 def low_variance_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -53,39 +49,23 @@ def low_variance_resample(weights: np.ndarray, rng: np.random.Generator) -> np.n
     return np.minimum(np.searchsorted(cumulative, pointers, side="right"), n - 1)
 
 
-def plausible_corrections(predicted: np.ndarray, matched: np.ndarray, std: np.ndarray,
-                          min_gate: Tuple[float, float]) -> np.ndarray:
-    """(n,) bool: is each scan-matched pose (n, 3) within MATCH_GATE_SIGMAS motion-model
-    stds of the particle's predicted pose (n, 3)?
-
-    The improved proposal is p(z | m, x) p(x | x', u) (Grisetti et al. 2007, sec. IV):
-    the scan match's mode is a good proposal only where the motion model allows it. In a
-    corridor whose end is out of range the score is flat along it, and the hill climbing
-    can walk 20 cm on noise in one update, 18 stds of the Summit's odometry (a live tour
-    whose SLAM node, busy, used every few scans only: ATE 0.073 m with this drift, 0.005
-    m without). Such a correction is refused and the particle keeps its odometry sample, as
-    gmapping does for a score below minimumScore.
-
-    std (3,): the motion model's std [m, m, rad] of the odometry increment since the last
-    processed scan (motion_model.noise_std), per axis of the predicted pose's frame.
-    min_gate: (lstep [m], astep [rad]): a correction within the matcher's first step is
-    always allowed (the gate never shrinks below what one hill-climbing move does).
-    """
-    gate = np.maximum(MATCH_GATE_SIGMAS * np.asarray(std, float),
-                      [min_gate[0], min_gate[0], min_gate[1]])
-    d = matched - predicted
-    cos, sin = np.cos(predicted[:, 2]), np.sin(predicted[:, 2])
-    local = np.column_stack((cos * d[:, 0] + sin * d[:, 1], -sin * d[:, 0] + cos * d[:, 1],
-                             np.arctan2(np.sin(d[:, 2]), np.cos(d[:, 2]))))
-    return np.all(np.abs(local) <= gate, axis=1)
-
-
 def normalized_weights(log_weights: np.ndarray, ogain: float) -> Tuple[np.ndarray, float]:
     """gmapping's normalize(): (weights (N,) summing to 1, Neff)."""
     gain = 1.0 / (ogain * len(log_weights))
     w = np.exp(gain * (log_weights - log_weights.max()))
     w /= w.sum()
     return w, 1.0 / float(np.sum(w * w))
+
+
+def warm_up() -> None:
+    """Run every compiled kernel once on a tiny case, so that a node pays numba's
+    compilation (or cache load) before its first scan, not during it."""
+    angles = np.linspace(-1.5, 1.5, 8)
+    slam = RbpfSlam(SlamConfig(particles=2, xmin=-1.0, ymin=-1.0, xmax=1.0, ymax=1.0),
+                    np.random.default_rng(0))
+    for k in range(3):
+        slam.process((0.6 * k, 0.0, 0.0), np.full(angles.shape, 2.0), angles, timestamp=float(k))
+    slam.occupancy_grid()
 
 
 class RbpfSlam:
@@ -111,12 +91,14 @@ class RbpfSlam:
         self._n_beams: Optional[int] = None
         self._last_odom: Optional[np.ndarray] = None
         self._last_update_time: Optional[float] = None
-        self._update_odom: Optional[np.ndarray] = None  # odometry pose at the last processed scan
         self._linear_distance = 0.0                   # since the last processed scan [m]
         self._angular_distance = 0.0                  # since the last processed scan [rad]
         self._hist_poses: List[np.ndarray] = []       # per processed scan: poses before resampling
         self._hist_parents: List[np.ndarray] = []     # per processed scan: resampling indices
         self._hist_times: List[float] = []
+        self._hist_scans: List[tuple] = []           # per processed scan: (ranges, angles, laser, maxRange)
+        self._render_base: Optional[PatchGrid] = None  # ray-traced map of the particles' common past
+        self._render_upto = -1                        # ... up to this processed scan
 
     # ------------------------------------------------------------------ input
     def process(self, odom_pose: Sequence[float], ranges: Sequence[float],
@@ -176,14 +158,13 @@ class RbpfSlam:
     def _initialize(self, odom, r, a, laser, max_range, timestamp):
         """First scan: all particles at the odometry pose, sharing the scan's map."""
         self.poses[:] = odom
-        first = PatchGrid(self.config.delta)
+        first = PatchGrid(self.config.delta, PatchPool())
         lp = scan_matcher.laser_poses(odom[None, :], laser)[0]
-        first.integrate_scan(lp, r, a, self.config.maxUrange, max_range)
+        first.add_hits(lp, r, a, self.config.maxUrange, max_range)
         self.maps = [first] + [first.copy() for _ in range(self.config.particles - 1)]
         self._last_odom = odom
-        self._update_odom = odom
         self._last_update_time = timestamp
-        self._record(np.arange(self.config.particles), timestamp)
+        self._record(np.arange(self.config.particles), timestamp, (r, a, laser, max_range))
         self.update_count = 1
 
     def _predict(self, odom):
@@ -214,59 +195,29 @@ class RbpfSlam:
         resample = self.neff < c.resampleThreshold * c.particles   # step 6
         if resample:
             parents = low_variance_resample(self.weights, self.rng)
-        self._record(parents, timestamp)   # poses before resampling + who survives
+        self._record(parents, timestamp, (r, a, laser, max_range))   # poses before resampling + who survives
         if resample:
             self._resample(parents)
         self._integrate(r, a, laser, max_range, parents)     # step 7
         self._linear_distance = 0.0
         self._angular_distance = 0.0
         self._last_update_time = timestamp
-        self._update_odom = self._last_odom
         self.update_count += 1
 
     def _scan_match(self, beams, laser):
-        """Steps 3-4: improve each particle's pose by scan matching, weight it.
-
-        Particles are matched in lockstep in chunks whose field windows hold at most
-        MATCH_CHUNK_CELLS cells, which bounds the fields' memory.
-        """
+        """Steps 3-4: improve each particle's pose by scan matching, weight it (gmapping's
+        GridSlamProcessor::scanMatch): the matched pose is taken when its score is above
+        minimumScore; the log-likelihood at the pose taken is added to the weights."""
         c = self.config
-        start = scan_matcher.endpoints(self.poses, laser, beams.local_xy)  # (N, K, 2)
-        octants = (scan_matcher.beam_octants(self.poses, laser, beams.angles)
-                   if DIRECTIONAL_MATCH else None)   # (N, K), fixed for this update
-        for chunk in self._match_chunks(start):
-            fields = scan_matcher.build_fields([self.maps[i] for i in chunk], start[chunk],
-                                               c.sigma, c.lsigma, c.kernelSize,
-                                               directional=DIRECTIONAL_MATCH)
-            octs = None if octants is None else octants[chunk]
-            matched, scores = scan_matcher.optimize(fields, self.poses[chunk], laser, beams,
-                                                    c.lstep, c.astep, c.iterations, octs)
-            good = (scores > c.minimumScore) & self._plausible(self.poses[chunk], matched)
-            self.poses[chunk[good]] = matched[good]
-            loglik, _ = scan_matcher.likelihood_and_score(fields, self.poses[chunk], laser, beams, octs)
-            self.log_weights[chunk] += loglik
-            self.log_weight_sums[chunk] += loglik
-
-    def _plausible(self, predicted, matched):
-        """(n,) bool: may each particle take its scan-matched pose (plausible_corrections)?"""
-        c = self.config
-        inc = motion_model.odometry_increment(self._update_odom, self._last_odom)
-        std = motion_model.noise_std(inc, c.srr, c.srt, c.str, c.stt)
-        return plausible_corrections(predicted, matched, std, (c.lstep, c.astep))
-
-    def _match_chunks(self, start):
-        """Split particle indices into chunks of at most MATCH_CHUNK_CELLS window cells."""
-        chunks, current, cells = [], [], 0
-        for i in range(self.config.particles):
-            _, _, width, height = scan_matcher.field_window(start[i], self.config.delta)
-            size = width * height * (scan_matcher.OCTANTS if DIRECTIONAL_MATCH else 1)
-            if current and cells + size > MATCH_CHUNK_CELLS:
-                chunks.append(np.array(current))
-                current, cells = [], 0
-            current.append(i)
-            cells += size
-        chunks.append(np.array(current))
-        return chunks
+        tables = scan_matcher.map_tables(self.maps)
+        matched, scores = scan_matcher.optimize(tables, self.poses, laser, beams, c.sigma, c.kernelSize,
+                                                c.lstep, c.astep, c.iterations)
+        good = scores > c.minimumScore
+        self.poses[good] = matched[good]
+        loglik, _ = scan_matcher.likelihood_and_score(tables, self.poses, laser, beams, c.sigma, c.lsigma,
+                                                      c.kernelSize)
+        self.log_weights += loglik
+        self.log_weight_sums += loglik
 
     def _resample(self, parents):
         """Step 6: copy the chosen particles; maps are shared copy-on-write."""
@@ -278,10 +229,12 @@ class RbpfSlam:
         self.resample_count += 1
 
     def _integrate(self, r, a, laser, max_range, parents):
-        """Step 7: ray-trace the scan into every particle's map.
+        """Step 7: add the scan's hit points to every particle's map (slam_gmapping runs
+        gmapping with generateMap false: the particles' maps hold end points only; the
+        published map is ray-traced separately, occupancy_grid).
 
         Children of one parent have the same pose and map right after resampling, so
-        the scan is traced once per parent and the children share the result.
+        the scan is added once per parent and the children share the result.
         """
         c = self.config
         lps = scan_matcher.laser_poses(self.poses, laser)
@@ -291,13 +244,15 @@ class RbpfSlam:
                 self.maps[i] = done[p].copy()
                 continue
             grid = self.maps[i]
-            grid.integrate_scan(lps[i], r, a, c.maxUrange, max_range)
+            grid.add_hits(lps[i], r, a, c.maxUrange, max_range)
             done[p] = grid
 
-    def _record(self, parents, timestamp):
+    def _record(self, parents, timestamp, scan):
         self._hist_poses.append(self.poses.copy())
         self._hist_parents.append(np.asarray(parents).copy())
         self._hist_times.append(np.nan if timestamp is None else float(timestamp))
+        r, a, laser, max_range = scan
+        self._hist_scans.append((r.copy(), a.copy(), laser.copy(), max_range))
 
     # ---------------------------------------------------------------- output
     def best_particle(self) -> int:
@@ -331,26 +286,65 @@ class RbpfSlam:
         return np.array(self._hist_times)
 
     def _ancestry(self, index: int) -> np.ndarray:
-        out = np.empty((len(self._hist_poses), 3))
+        rows = self._lineage(index)
+        return np.array([self._hist_poses[k][i] for k, i in enumerate(rows)]).reshape(-1, 3)
+
+    def _lineage(self, index: int) -> np.ndarray:
+        """Row (K,) of each processed scan's recorded poses on particle index's ancestry."""
+        rows = np.empty(len(self._hist_poses), np.intp)
         i = index
         for k in range(len(self._hist_poses) - 1, -1, -1):
             i = int(self._hist_parents[k][i])
-            out[k] = self._hist_poses[k][i]
-        return out
+            rows[k] = i
+        return rows
+
+    def _common_past(self) -> int:
+        """The last processed scan whose pose all particles' ancestries share (-1: none)."""
+        rows = np.arange(self.config.particles)
+        for k in range(len(self._hist_poses) - 1, -1, -1):
+            rows = self._hist_parents[k][rows]
+            if np.all(rows == rows[0]):
+                return k
+        return -1
+
+    def _trace_history(self, grid: PatchGrid, k: int, row: int) -> None:
+        r, a, laser, max_range = self._hist_scans[k]
+        lp = scan_matcher.laser_poses(self._hist_poses[k][row][None, :], laser)[0]
+        grid.integrate_scan(lp, r, a, self.config.maxUrange, max_range)
+
+    def best_map(self) -> Optional[PatchGrid]:
+        """The map slam_gmapping publishes: every processed scan ray-traced (free cells,
+        hits) from the best particle's ancestry (gmapping's updateMap, generateMap true).
+
+        The part of the past that all particles share cannot change any more; it is
+        traced once and kept (_render_base), only the best lineage's own recent scans
+        are traced on a copy of it each time."""
+        if not self._hist_poses:
+            return None
+        rows = self._lineage(self.best_particle())
+        if self._render_base is None:
+            self._render_base = PatchGrid(self.config.delta, PatchPool())
+        for k in range(self._render_upto + 1, self._common_past() + 1):
+            self._trace_history(self._render_base, k, rows[k])
+            self._render_upto = k
+        grid = self._render_base.copy()
+        for k in range(self._render_upto + 1, len(rows)):
+            self._trace_history(grid, k, rows[k])
+        return grid
 
     def occupancy_grid(self):
-        """The best particle's map as ROS OccupancyGrid content.
+        """The best particle's map (best_map) as ROS OccupancyGrid content.
 
         Returns (data int8 (height*width,) row-major from the lower-left cell, width,
         height, resolution [m], origin_x [m], origin_y [m]); -1 unknown, 0 free, 100
         occupied (occupancy > occ_thresh). Covers at least xmin..xmax, ymin..ymax and
         grows with the explored area. None before any scan.
         """
-        if not self.maps:
+        grid = self.best_map()
+        if grid is None:
             return None
         c = self.config
-        return self.maps[self.best_particle()].occupancy_grid(
-            c.occ_thresh, extent=(c.xmin, c.ymin, c.xmax, c.ymax))
+        return grid.occupancy_grid(c.occ_thresh, extent=(c.xmin, c.ymin, c.xmax, c.ymax))
 
     def entropy(self) -> float:
         """Entropy [nat] of the normalized particle weights (published on ~entropy)."""

@@ -74,7 +74,7 @@ import cv2
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.geometry import transform_points, wrap_angle
 
 EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
 MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
@@ -927,7 +927,21 @@ class LatencyMeter:
 
 
 # -- the planner ----------------------------------------------------------------------
-class DWAPlanner:
+class HeldPlan:
+    """What both local planners do with the plan they hold: self.plan ((N, 2) points in the
+    local frame, or None) and self.goal_yaw [rad], re-expressed by reframe_plan."""
+
+    def reframe_plan(self, delta):
+        """nav_core's LocalPlanner.reframe_plan (transformGlobalPlan, each cycle): the plan
+        (as pruned) and goal heading re-expressed by the rigid transform delta (x [m],
+        y [m], yaw [rad]); the goal latch and the pruning are kept."""
+        if self.plan is None:
+            return
+        self.plan = transform_points(self.plan, delta)
+        self.goal_yaw = float(wrap_angle(self.goal_yaw + delta[2]))
+
+
+class DWAPlanner(HeldPlan):
     """The DWA local planner (nav_core's BaseLocalPlanner, without ROS).
 
     config: DWAConfig; footprint: costmap.Footprint; holonomic: sample vy (omni drive),

@@ -8,11 +8,15 @@ Gradient Method for Realtime Robot Control"), a fast-marching-like wavefront on 
 4-connected grid.
 
 The algorithm, in the order it runs (GlobalPlanner.make_plan):
-1. Cell costs (the expanders' getCost): a costmap cost c below ``lethal_cost - 1``
-   costs ``min(c * cost_factor + neutral_cost, lethal_cost - 1)``; unknown cells (255)
-   the same when allow_unknown; every other cell is forbidden. With the defaults
-   (253, 50, 3.0) every cost from 68 up weighs the same 252: the planner keeps to the
-   middle of a corridor, not to a cost gradient. outline_map makes the costmap's border
+1. Cell costs: a costmap cost c below ``lethal_cost - 1`` costs
+   ``min(c * cost_factor + neutral_cost, lethal_cost - 1)`` (Dijkstra: the expander's
+   getCost) or ``min(c + neutral_cost, lethal_cost - 1)`` (A*: AStarExpansion adds the
+   raw cost to neutral_cost, cost_factor does not apply); unknown cells (255) the same
+   when allow_unknown; every other cell is forbidden. With the defaults (253, 50, 3.0)
+   Dijkstra weighs every cost from 68 up the same 252: it keeps to the middle of a
+   corridor, ~0.6 m off the walls with the course's inflation, and plans paths ~3 %
+   longer than the shortest free route; A*'s gentler weights (up to 5 x neutral_cost
+   only at cost 202) give paths ~1 % longer. outline_map makes the costmap's border
    cells forbidden.
 2. Potential from the robot towards the goal (expand): cells are accepted in order of
    potential (Dijkstra, use_dijkstra) or potential + a distance-to-goal heuristic (A*);
@@ -46,12 +50,14 @@ The hot loops (expansion, both path makers) are compiled with numba when it is p
 the slow, obvious expansion kept as the test oracle.
 
 Deliberate differences from the real planner:
-- A* uses the same cell costs and potential update as Dijkstra, and an admissible
-  heuristic (HEURISTIC_WEIGHT x neutral_cost x Euclidean distance), so it plans the
-  Dijkstra path (to within the update's order dependence) and expands about half the
-  cells. (The real AStarExpansion adds raw costmap cost + neutral_cost, ignoring
-  cost_factor, never lowers a potential once set, and weighs neutral_cost x the
-  Manhattan distance, which overestimates: its paths are not the Dijkstra paths.)
+- A* has the real AStarExpansion's cell costs (raw cost + neutral_cost; the real one
+  passes that sum as an unsigned char, so from cost 206 up it wraps round to a small
+  cost: here it is capped at lethal_cost - 1 as Dijkstra's), the same potential update
+  as Dijkstra and an admissible heuristic (HEURISTIC_WEIGHT x neutral_cost x Euclidean
+  distance), so it plans the Dijkstra path of those costs (to within the update's order
+  dependence) and expands fewer cells. (The real one never lowers a potential once set
+  and weighs neutral_cost x the Manhattan distance, which overestimates: its paths are
+  not the Dijkstra paths of any cost.)
 - Dijkstra accepts cells in exact potential order (a binary heap), not in navfn's
   threshold buckets.
 - The precise start seeds the four cells around the robot with cost x distance; the
@@ -59,8 +65,9 @@ Deliberate differences from the real planner:
   the half-cell-shifted coordinates, taking the cell below and left half the time).
 - make_plan follows our NavFn's contract: the same error texts, default_tolerance
   honoured, and a robot whose centre is in a forbidden but not lethal cell (inscribed, or
-  unknown without allow_unknown) gets a plan out of that region (the real planner frees
-  the robot's cell only, in the shared costmap). The costmap is never modified.
+  unknown without allow_unknown) gets a plan out of that region by a short way
+  (navfn.start_region; the real planner frees the robot's cell only, in the shared
+  costmap). The costmap is never modified.
 - The fill around the goal (clearEndpoint) covers passable cells only, at their cell
   cost (the real one fills obstacle cells too, at raw cost + neutral_cost), so no path
   point can be pulled into an obstacle.
@@ -71,11 +78,11 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from .navfn import POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints
+from .navfn import (POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints,
+                    start_region)
 from .params import ParamError, _coerce
 
 from summit_nav_common.jit import njit
@@ -94,6 +101,7 @@ QUAD_A, QUAD_B, QUAD_C = -0.2301, 0.5307, 0.7040
 # were reached before it, so A*'s order moves potentials a little: on willow-full's
 # costmap the goal's by <= 1 %, the plan's cost by <= 0.2 %.)
 HEURISTIC_WEIGHT = QUAD_C
+ASTAR_COST_FACTOR = 1.0  # AStarExpansion: raw costmap cost + neutral_cost (cost_factor is Dijkstra's only)
 STRAIGHT_ANGLE = 0.35    # [rad] ForwardThenInterpolate: headings within this of the last one are "straight"
 HEAP_CAPACITY = 1 << 14  # initial heap size [entries]; it doubles when full
 
@@ -122,7 +130,7 @@ class GlobalPlannerConfig:
     # dynamic_reconfigure (GlobalPlanner.cfg), with its ranges
     lethal_cost: int = 253                # [1, 255] costs from lethal_cost - 1 up are forbidden
     neutral_cost: int = 50                # [1, 255] potential per cell of free space
-    cost_factor: float = 3.0              # [0.01, 5.0] potential per unit of costmap cost
+    cost_factor: float = 3.0              # [0.01, 5.0] potential per unit of costmap cost (Dijkstra only)
     publish_potential: bool = True        # publish ~potential (the node's job; here: keep it)
     orientation_mode: int = 1             # [0, 6] ORIENTATION_MODES; the .cfg's default is Forward
     orientation_window_size: int = 1      # [1, 255] [poses] either side for the path direction
@@ -596,7 +604,8 @@ class GlobalPlanner:
         if why:
             return GlobalPlanResult(reason=why)
         data = costmap.data
-        cost = planner_costs(data, cfg.lethal_cost, cfg.neutral_cost, cfg.cost_factor, cfg.allow_unknown)
+        factor = cfg.cost_factor if cfg.use_dijkstra else ASTAR_COST_FACTOR
+        cost = planner_costs(data, cfg.lethal_cost, cfg.neutral_cost, factor, cfg.allow_unknown)
         if cfg.outline_map:
             cost[0, :] = cost[-1, :] = cost[:, 0] = cost[:, -1] = np.inf
         if not np.isfinite(cost[sc[1], sc[0]]):
@@ -688,9 +697,5 @@ class GlobalPlanner:
 
 
 def _open_start_region(data, cost, sc, value):
-    """Make the forbidden, non-lethal region around the start cell passable at value (in place)."""
-    blocked = (~np.isfinite(cost)) & (data != LETHAL_OBSTACLE)
-    mask = np.zeros((data.shape[0] + 2, data.shape[1] + 2), np.uint8)
-    img = blocked.astype(np.uint8)
-    cv2.floodFill(img, mask, (int(sc[0]), int(sc[1])), 2, flags=8)
-    cost[img == 2] = value
+    """navfn.start_region made passable at value (in place)."""
+    cost[start_region(~np.isfinite(cost), data == LETHAL_OBSTACLE, sc)] = value

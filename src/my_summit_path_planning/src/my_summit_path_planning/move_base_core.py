@@ -10,6 +10,12 @@ recovery behaviours run one after the other, each followed by planning again; a 
 plan (or command, or movement) for the trigger that sent it there starts the sequence
 over; once they are used up the goal is aborted with move_base's text.
 
+The plan is made in the global frame (map) and driven in the local one (odom). As
+base_local_planner's transformGlobalPlan does every control cycle, the plan the local
+planner holds is re-expressed with the current global -> local transform whenever it
+moved (amcl correcting map -> odom while the robot drives), so the goal stays where it
+is in the map whether or not a new plan comes.
+
 MoveBaseCore is pure: time comes in as seconds, poses as (x, y, yaw), plugins (nav_core
 shapes) are passed in, and each control cycle returns what to publish and log. It is not
 thread-safe: the node calls it under one lock from its control loop and planner thread.
@@ -20,6 +26,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from summit_nav_common.geometry import compose, inverse
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from .dwa import LatencyMeter
@@ -39,6 +47,7 @@ TRAIL_POINTS = 250           # the last 5 m of them
 QUATERNION_TOLERANCE = 1e-2  # |norm - 1| accepted in a goal's orientation [-]
 UPRIGHT_TOLERANCE = 1e-3     # 1 - cos(tilt) accepted: a goal may only rotate about z [-]
 WARN, INFO = "warn", "info"
+FRAME_MOVED = 1e-9           # [m, rad] a global -> local transform change below this is none
 
 
 class GoalError(ValueError):
@@ -188,6 +197,7 @@ class MoveBaseCore:
         self.run_planner = goal is not None
         self.new_plan = None                # (N, 2) global plan not yet given to the controller
         self.has_plan = False               # the controller has a plan
+        self.plan_frame = None              # the global -> local transform it was expressed with
         self.planning_retries = 0
         self.recovery_index = 0
         self.recovery_running = None        # index of the behaviour started, or None
@@ -297,6 +307,8 @@ class MoveBaseCore:
                 self.state = CONTROLLING
             if self.config.planner_frequency <= 0:
                 self.run_planner = False
+        elif self.has_plan:
+            self._follow_frame(global_to_local, out)
         if self.state == PLANNING:
             self.run_planner = True
             return out
@@ -315,7 +327,23 @@ class MoveBaseCore:
         local = np.column_stack([x + c * plan[:, 0] - s * plan[:, 1], y + s * plan[:, 0] + c * plan[:, 1]])
         self.local_planner.set_plan(local, self.goal[2] + yaw)
         self.has_plan = True
+        self.plan_frame = tuple(float(v) for v in global_to_local)
         return local
+
+    def _follow_frame(self, global_to_local, out):
+        """transformGlobalPlan each cycle: when the global -> local transform moved since the
+        plan was expressed, the local planner re-expresses its plan by the change
+        (nav_core.LocalPlanner.reframe_plan); its pruning and goal latch are kept."""
+        if global_to_local is None:
+            out.logs.append((WARN, "cannot follow the global frame: no transform; the plan stays as it was "
+                                   "last expressed", True))
+            return
+        new = tuple(float(v) for v in global_to_local)
+        delta = compose(new, inverse(self.plan_frame))
+        if max(abs(v) for v in delta) <= FRAME_MOVED:
+            return
+        self.local_planner.reframe_plan(tuple(float(v) for v in delta))
+        self.plan_frame = new
 
     def _control(self, now, global_pose, local_pose, velocity, costmap, out):
         cfg = self.config

@@ -42,6 +42,11 @@ class LocalPlanner(Protocol):
     def set_plan(self, plan, goal_yaw):
         """A global plan: (N, 2) points [m] in the local costmap's frame; goal heading [rad]."""
 
+    def reframe_plan(self, delta):
+        """The local frame moved against the global one: re-express the plan held (as pruned)
+        and the goal heading by the rigid transform delta (x [m], y [m], yaw [rad]), a point
+        p going to R(yaw) p + (x, y). Nothing else changes (the goal latch, the pruning)."""
+
     def compute_velocity_commands(self, pose, velocity, costmap):
         """One control cycle: pose (x, y, yaw) in the local frame, body velocity (vx, vy, vth)
         from odometry, the local Costmap2D. Returns a result with cmd (vx [m/s], vy [m/s],

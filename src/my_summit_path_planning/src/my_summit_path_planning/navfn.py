@@ -33,10 +33,13 @@ The algorithm, in the order it runs:
    cost integrated along it), then the path is resampled every PATH_STEP.
 
 Deliberate difference from navfn: a robot whose centre is in an inscribed (or, without
-allow_unknown, unknown) cell still gets a plan: the forbidden, non-lethal region that
-contains the start is made passable at the highest cost (COST_OBS - 1), so the plan
-leads out of it by the shortest way (the real navfn returns no plan there and the
-robot needs a recovery). A start in a lethal cell still fails.
+allow_unknown, unknown) cell still gets a plan: the forbidden, non-lethal cells near
+the start and no deeper in that region than the start (start_region) are made passable
+at the highest cost (COST_OBS - 1), so the plan leads out by a short way (the real
+navfn returns no plan there and the robot needs a recovery). Not the whole region: the
+inscribed bands along walls join up round corners and through gaps between wall cells,
+and opened whole they let the plan cut through a wall. A start in a lethal cell still
+fails.
 """
 import heapq
 import math
@@ -74,6 +77,11 @@ SHORTCUT_WINDOW = 320  # [path points] (PATH_STEP each) looked ahead at most
 SHORTCUT_SAMPLE = 1.0   # [cells] sample spacing along a segment (safe cells: 3x3-eroded)
 # 8-connected neighbour offsets (dx, dy) and step lengths [cells].
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1))
+
+START_REGION_SLACK = 4    # [cells] start_region spreads at least this far from the start
+START_REGION_MAX = 200    # [cells] a start deeper than this in a forbidden region opens all of it
+_NEIGHBOUR_DX = np.array([dx for dx, _ in NEIGHBOURS])
+_NEIGHBOUR_DY = np.array([dy for _, dy in NEIGHBOURS])
 
 
 @dataclass
@@ -606,15 +614,48 @@ def _all_reached(pot, cells):
     return bool((pot[idx[:, 1], idx[:, 0]] < POT_HIGH).all())
 
 
+def start_region(forbidden, lethal, sc):
+    """(H, W) bool: the forbidden, non-lethal cells a plan may cross to leave the forbidden
+    region the start cell sc (x, y) lies in: those no deeper in it than the start (depth:
+    the distance to the nearest passable cell) and within max(START_REGION_SLACK, twice
+    that depth) cells of the start (8-connected, through such cells). The way out never
+    needs deeper cells, while crossing a wall between its cells does (the wall's core is
+    the deepest part of its inscribed band). With no passable cell within START_REGION_MAX
+    cells (a robot deep in unknown space) the whole connected region."""
+    blocked = forbidden & ~lethal
+    h, w = blocked.shape
+    if forbidden.all():
+        depth0 = math.inf
+    else:
+        depth = cv2.distanceTransform(forbidden.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        depth0 = float(depth[sc[1], sc[0]])
+    if depth0 > START_REGION_MAX:
+        mask = np.zeros((h + 2, w + 2), np.uint8)
+        img = blocked.astype(np.uint8)
+        cv2.floodFill(img, mask, (int(sc[0]), int(sc[1])), 2, flags=8)
+        return img == 2
+    # Breadth-first from the start through the shallow cells, one ring of 8-neighbours per
+    # step; the frontier is a set (each cell once), so the work is that of the cells opened.
+    shallow = (blocked & (depth <= depth0 + 1e-6)).ravel()
+    region = np.zeros(h * w, bool)
+    front = np.array([sc[1] * w + sc[0]], dtype=np.int64)
+    region[front] = True
+    for _ in range(max(START_REGION_SLACK, int(math.ceil(2.0 * depth0)))):
+        ny = (front[:, None] // w + _NEIGHBOUR_DY).ravel()
+        nx = (front[:, None] % w + _NEIGHBOUR_DX).ravel()
+        ok = (ny >= 0) & (ny < h) & (nx >= 0) & (nx < w)
+        cand = np.unique(ny[ok] * w + nx[ok])
+        front = cand[shallow[cand] & ~region[cand]]
+        if len(front) == 0:
+            break
+        region[front] = True
+    return region.reshape(h, w)
+
+
 def _open_start_region(data, cell_cost, sc):
-    """Make the forbidden, non-lethal region around the start passable at COST_OBS - 1."""
-    blocked = (~np.isfinite(cell_cost)) & (data != LETHAL_OBSTACLE)
-    mask = np.zeros((data.shape[0] + 2, data.shape[1] + 2), np.uint8)
-    img = blocked.astype(np.uint8)
-    cv2.floodFill(img, mask, (int(sc[0]), int(sc[1])), 2, flags=8)
-    region = img == 2
+    """cell_cost with start_region passable at COST_OBS - 1."""
     out = cell_cost.copy()
-    out[region] = COST_OBS - 1
+    out[start_region(~np.isfinite(cell_cost), data == LETHAL_OBSTACLE, sc)] = COST_OBS - 1
     return out
 
 

@@ -26,7 +26,8 @@ from .navfn import NavfnConfig
 
 CONFIG_FILES = ("move_base_params.yaml", "costmap_common_params.yaml",
                 "global_costmap_params.yaml", "local_costmap_params.yaml",
-                "navfn_global_planner_params.yaml", "dwa_local_planner_params.yaml")
+                "navfn_global_planner_params.yaml", "dwa_local_planner_params.yaml",
+                "base_local_planner_params.yaml")
 
 # dwa_local_planner's pre-Melodic names -> current names.
 DWA_ALIASES = {"max_trans_vel": "max_vel_trans", "min_trans_vel": "min_vel_trans",
@@ -288,7 +289,7 @@ def _read(path):
 
 
 def load_move_base_params(config_dir):
-    """Read the course's six YAML files from config_dir into move_base's namespace, as
+    """Read the course's YAML files (CONFIG_FILES) from config_dir into move_base's namespace, as
     move_base.launch loads them (the common file into both costmaps), then
     move_base_params."""
     docs = {}

@@ -85,7 +85,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from .dwa import DWAResult
+from .dwa import DWAResult, HeldPlan
 from .params import ParamError
 from summit_nav_common.geometry import wrap_angle
 
@@ -134,7 +134,8 @@ class TrajectoryPlannerConfig:
     xy_goal_tolerance: float = 0.1         # [m]
     yaw_goal_tolerance: float = 0.05       # [rad]
     latch_xy_goal_tolerance: bool = False  # once within xy tolerance, only rotate
-    dwa: bool = False                      # sample the window of one sim_period (else sim_time)
+    dwa: bool = True                       # sample the window of one sim_period (else sim_time); the
+                                           # real default (trajectory_planner_ros.cpp and the wiki: true)
     simple_attractor: bool = False         # score the squared distance to the plan's end only
     stop_time_buffer: float = 0.2          # [s] read by the real node, unused by its planner
 
@@ -732,7 +733,7 @@ def sign(v):
 
 
 # -- the planner ----------------------------------------------------------------------------
-class TrajectoryPlanner:
+class TrajectoryPlanner(HeldPlan):
     """base_local_planner's TrajectoryPlannerROS without ROS (nav_core's BaseLocalPlanner).
 
     config: TrajectoryPlannerConfig; footprint: costmap.Footprint (its padded polygon is

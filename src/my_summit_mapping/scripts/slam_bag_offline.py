@@ -1,0 +1,110 @@
+#!/usr/bin/python3
+"""Replay a CARMEN log's bag content through the RBPF core as the live node would, without ROS.
+
+The live benchmark (bench_slam_bag.py) plays a bag into nodes/slam_gmapping; when the node
+keeps up it processes every scan in order with the same parameters (bench_slam_bag's
+node_params), the same laser mount and the filter's rng seeded with the run's seed, so
+this replay makes the same filter updates and scores the same online estimate (the
+map -> odom after the latest update at or before each scan, composed with the odometry;
+online_eval). It is cheap enough to search for a seed's divergence (--updates N stops
+after N filter updates).
+
+Usage: slam_bag_offline.py LOG [--seeds 1 2] [--updates N] [--set name=value ...]
+                               [--json PATH] [--profile PATH]
+"""
+import argparse
+import cProfile
+import json
+import os
+import resource
+import statistics
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "src"))
+sys.path.insert(0, HERE)
+
+from bench_slam_bag import node_params, parse_set  # noqa: E402
+from my_summit_mapping import carmen, carmen_bag, metrics, online_eval  # noqa: E402
+from my_summit_mapping.rbpf import RbpfSlam  # noqa: E402
+from my_summit_mapping.slam_config import SlamConfig  # noqa: E402
+
+
+def replay(scans, seed, overrides=None, max_updates=None):
+    """Feed scans (carmen_bag.BagScans) to RbpfSlam as the node does; a result dict."""
+    params = node_params(scans, overrides)
+    slam = RbpfSlam(SlamConfig.from_dict(params), np.random.default_rng(seed))
+    n = scans.ranges.shape[1]
+    angles = scans.angle_min + scans.angle_increment * np.arange(n)
+    laser = (float(scans.laser_offset), 0.0, 0.0)
+    m2o = np.zeros((len(scans.stamps), 3))
+    current = np.zeros(3)
+    cpu0 = time.process_time()
+    k_end = len(scans.stamps)
+    for k in range(len(scans.stamps)):
+        ranges = scans.ranges[k].copy()
+        if slam.process(scans.odometry[k], ranges, angles, laser, timestamp=float(scans.stamps[k]),
+                        range_max=float(scans.range_max)):
+            current = slam.map_to_odom()
+        m2o[k] = current
+        if max_updates is not None and slam.update_count >= max_updates:
+            k_end = k + 1
+            break
+    cpu = time.process_time() - cpu0
+    online = online_eval.compose(m2o[:k_end], scans.odometry[:k_end])
+    ref = scans.reference[:k_end]
+    return dict(seed=seed, scans=k_end, updates=slam.update_count,
+                ate_online_m=metrics.ate_rmse(online, ref),
+                ate_odom_m=metrics.ate_rmse(scans.odometry[:k_end], ref),
+                ate_best_path_m=metrics.ate_rmse(slam.trajectory(), ref[_update_scans(slam, scans, k_end)]),
+                cpu_s=cpu, cpu_ms_per_update=1000.0 * cpu / max(slam.update_count, 1),
+                resamples=slam.resample_count,
+                peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0), slam
+
+
+def _update_scans(slam, scans, k_end):
+    """Indices of the scans the filter updated on (matched by timestamp)."""
+    return np.searchsorted(scans.stamps[:k_end], slam.trajectory_times())
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("log", help="CARMEN log (.log/.log.gz) or a bag from carmen_to_bag.py")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1])
+    parser.add_argument("--updates", type=int, help="stop after this many filter updates")
+    parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE")
+    parser.add_argument("--json", help="write the results as JSON to this path")
+    parser.add_argument("--profile", help="cProfile the (first seed's) run into this .pstats path")
+    args = parser.parse_args(argv)
+    overrides = parse_set(args.set)
+    log = None if args.log.endswith(".bag") else carmen.read_carmen(args.log)
+    results = []
+    print(f"{'seed':>4} {'scans':>6} {'updates':>7} {'ATE online':>10} {'ATE path':>9} {'ATE odom':>9} "
+          f"{'CPU s':>7} {'ms/update':>9} {'resamples':>9} {'RSS MB':>7}")
+    for seed in args.seeds:
+        scans = carmen_bag.read_bag(args.log) if log is None else carmen_bag.bag_scans(log, seed)
+        prof = cProfile.Profile() if args.profile and not results else None
+        if prof:
+            prof.enable()
+        r, _ = replay(scans, seed, overrides, args.updates)
+        if prof:
+            prof.disable()
+            prof.dump_stats(args.profile)
+        results.append(r)
+        print(f"{seed:4d} {r['scans']:6d} {r['updates']:7d} {r['ate_online_m']:10.3f} {r['ate_best_path_m']:9.3f} "
+              f"{r['ate_odom_m']:9.3f} {r['cpu_s']:7.1f} {r['cpu_ms_per_update']:9.1f} {r['resamples']:9d} "
+              f"{r['peak_rss_mb']:7.0f}", flush=True)
+    if len(results) > 1:
+        ates = [r["ate_online_m"] for r in results]
+        print(f"online ATE median {statistics.median(ates):.3f} m, worst {max(ates):.3f} m")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(dict(log=os.path.abspath(args.log), overrides=overrides, runs=results), f, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
