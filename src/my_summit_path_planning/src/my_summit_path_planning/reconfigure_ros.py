@@ -1,27 +1,39 @@
 """Live tuning of move_base with dynamic_reconfigure, under the real servers' names.
 
+The planners' servers are chosen by the planner's type string (SERVERS), as the
+registry chooses the planners; each is served at ~<namespace> (nav_core.namespace_of):
+
 - ``~DWAPlannerROS`` (cfg/DWAPlanner.cfg, dwa_local_planner's names and ranges), when
-  the local planner is dwa_local_planner/DWAPlannerROS: the DWA configuration is swapped
-  between two control cycles (the running planner's and the next goals');
-  ``restore_defaults`` brings back the configuration move_base started with.
+  the local planner is dwa_local_planner/DWAPlannerROS;
+- ``~TrajectoryPlannerROS`` (cfg/BaseLocalPlanner.cfg, base_local_planner's), when it is
+  base_local_planner/TrajectoryPlannerROS;
+  for both, the configuration is swapped between two control cycles (the running
+  planner's and the next goals'); ``restore_defaults`` brings back the configuration
+  move_base started with (as the real nodes: their first configuration);
+- ``~GlobalPlanner`` (cfg/GlobalPlanner.cfg, global_planner's: costs, orientation mode
+  and window, publish_potential), when the global planner is global_planner/GlobalPlanner:
+  the next plan (the planner thread's and ~make_plan's) uses the new values.
 - ``~global_costmap/<inflation layer>`` and ``~local_costmap/<inflation layer>``
   (cfg/InflationPlugin.cfg, costmap_2d's): the layer's parameters change and the whole
   costmap is re-inflated on its next update.
 
 The servers are summit_nav_common.ros.reconfigure.StrictServer: a value outside the .cfg's range
-is refused (logged with the valid range), not clamped. A combination the planner cannot
-run with (e.g. min_vel_x above max_vel_x) is refused the same way. The first callback
-(at start) only reports the parameters loaded from the YAML files.
+is refused (logged with the valid range), not clamped. A value or combination the planner cannot
+run with (e.g. min_vel_x above max_vel_x for DWA, sim_time 0 or an unparsable y_vels for
+the Trajectory Rollout planner) is refused the same way, the planner's ParamError text
+logged. The first callback (at start) only reports the parameters in use (the YAML
+files' or the planner's defaults).
 """
 import dataclasses
+import importlib
 
 import rospy
 
+from my_summit_path_planning.global_planner import GlobalPlanner
 from my_summit_path_planning.layers import InflationLayer
 from my_summit_path_planning.params import ParamError, dwa_config
+from my_summit_path_planning.trajectory_planner import trajectory_planner_config
 from summit_nav_common.ros.reconfigure import StrictServer
-
-DWA_TYPE = "dwa_local_planner/DWAPlannerROS"
 
 
 class _Callback:
@@ -87,6 +99,70 @@ class DWAReconfigure(_Callback):
         return {k: v for k, v in start.items() if cur[k] != v}
 
 
+class TrajectoryReconfigure(_Callback):
+    """~TrajectoryPlannerROS: swaps the TrajectoryPlannerConfig of the running local planner
+    (node.core.local_planner) and of the next goals' (node.plugins.local_params), under
+    node.lock. y_vels is served as the real .cfg's comma-separated string;
+    angular_sim_granularity as the step in use (sim_granularity when unset)."""
+
+    name = "TrajectoryPlannerROS"
+
+    def __init__(self, node):
+        super().__init__()
+        self.node = node
+        self.startup = self.current()
+
+    def _config(self, params):
+        cfg, _warnings, _ignored = trajectory_planner_config(
+            params, self.node.plugins.local_name, self.node.plugins.ctx.controller_frequency)
+        return cfg
+
+    def current(self):
+        cfg = self._config(self.node.plugins.local_params)
+        out = dataclasses.asdict(cfg)
+        out["angular_sim_granularity"] = cfg.angular_granularity
+        out["y_vels"] = ",".join(f"{v:g}" for v in cfg.y_vels)
+        return out
+
+    def apply(self, changes):
+        # the configuration in use under the current names (deprecated ones resolved), then the changes
+        params = {k: v for k, v in dataclasses.asdict(self._config(self.node.plugins.local_params)).items()
+                  if v is not None}
+        new = self._config(dict(params, **changes))   # ParamError if unusable
+        with self.node.lock:
+            self.node.plugins.local_params = {k: v for k, v in dataclasses.asdict(new).items() if v is not None}
+            planner = self.node.core.local_planner
+            if planner is not None:
+                planner.config = new
+
+    def defaults_changes(self):
+        cur = self.current()
+        return {k: v for k, v in self.startup.items() if cur[k] != v}
+
+
+class GlobalPlannerReconfigure(_Callback):
+    """~GlobalPlanner: the configuration of the planner thread's planner (node.planner),
+    ~make_plan's (node.service_planner) and later ones (node.plugins.global_params); a plan
+    already being made finishes with the values it started with."""
+
+    name = "GlobalPlanner"
+
+    def __init__(self, node):
+        super().__init__()
+        self.node = node
+
+    def current(self):
+        return dataclasses.asdict(self.node.planner.config)
+
+    def apply(self, changes):
+        params = dict(self.node.plugins.global_params, **changes)
+        new = GlobalPlanner.from_params(params, self.node.plugins.global_name).config   # ParamError if unusable
+        with self.node.lock:
+            self.node.plugins.global_params = params
+            for planner in (self.node.planner, self.node.service_planner):
+                planner.config = dataclasses.replace(new)
+
+
 class InflationReconfigure(_Callback):
     """~<costmap>/<inflation layer>: the layer's four parameters, then a full update."""
 
@@ -107,12 +183,28 @@ class InflationReconfigure(_Callback):
             self.cm.layered.force_full_update = True
 
 
+# planner type -> (the generated my_summit_path_planning.cfg.<name>Config, its callback class)
+SERVERS = {
+    "dwa_local_planner/DWAPlannerROS": ("DWAPlanner", DWAReconfigure),
+    "base_local_planner/TrajectoryPlannerROS": ("BaseLocalPlanner", TrajectoryReconfigure),
+    "global_planner/GlobalPlanner": ("GlobalPlanner", GlobalPlannerReconfigure),
+}
+
+
+def config_type(cfg_name):
+    """The generated dynamic_reconfigure module of cfg/<cfg_name>.cfg."""
+    return importlib.import_module(f"my_summit_path_planning.cfg.{cfg_name}Config")
+
+
 def start_servers(node):
     """The dynamic_reconfigure servers of a move_base node (kept alive by the caller)."""
-    from my_summit_path_planning.cfg import DWAPlannerConfig, InflationPluginConfig
     servers = []
-    if node.plugins.local_type == DWA_TYPE:
-        servers.append(StrictServer(DWAPlannerConfig, DWAReconfigure(node), namespace="~DWAPlannerROS"))
+    pl = node.plugins
+    for kind, namespace in ((pl.global_type, pl.global_name), (pl.local_type, pl.local_name)):
+        if kind in SERVERS:
+            cfg_name, callback = SERVERS[kind]
+            servers.append(StrictServer(config_type(cfg_name), callback(node), namespace=f"~{namespace}"))
+    InflationPluginConfig = config_type("InflationPlugin")
     for cm in (node.gcm, node.lcm):
         for layer in cm.layered.layers:
             if isinstance(layer, InflationLayer):
