@@ -32,3 +32,28 @@ def static_costmap(occ, footprint, resolution=0.05, origin=(0.0, 0.0, 0.0), infl
     lc.layer("static_layer").set_map(np.asarray(occ, np.int8), resolution, origin)
     lc.update_map(0.0, 0.0, 0.0)
     return lc
+
+
+class TwoGaps:
+    """40 x 21 cells at 0.1 m: a 5-cell-thick wall across x 1.8-2.3 m with a direct gap of
+    cost 40 (rows 9..11, on the straight line y 1.05 m) and a free detour gap (rows 16..18)."""
+
+    @staticmethod
+    def costmap():
+        cm = Costmap2D(40, 21, 0.1)
+        cm.data[:, 18:23] = cv.LETHAL_OBSTACLE
+        cm.data[9:12, 18:23] = 40
+        cm.data[16:19, 18:23] = cv.FREE_SPACE
+        return cm
+
+    @staticmethod
+    def through_direct_gap(result):
+        """True when the plan crosses the wall through the direct gap."""
+        at_wall = np.abs(result.path[:, 0] - 2.05) < 0.25
+        return bool((result.path[at_wall, 1] < 1.25).all())
+
+
+@pytest.fixture
+def two_gaps():
+    """TwoGaps (a fixture: pytest's importlib mode cannot import conftest)."""
+    return TwoGaps

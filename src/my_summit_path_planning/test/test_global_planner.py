@@ -264,36 +264,21 @@ def test_cell_cost_translation():
     npt.assert_array_equal(out, [99, 99, np.inf])  # capped at lethal_cost - 1; 99 and up forbidden
 
 
-def _two_gaps():
-    """40 x 21 cells: a 5-cell-thick wall with a direct gap of cost 40 (rows 9..11) and a
-    free detour gap (rows 16..18)."""
-    cm = Costmap2D(40, 21, 0.1)
-    cm.data[:, 18:23] = cv.LETHAL_OBSTACLE
-    cm.data[9:12, 18:23] = 40
-    cm.data[16:19, 18:23] = cv.FREE_SPACE
-    return cm
-
-
-def _through_direct_gap(r):
-    at_wall = np.abs(r.path[:, 0] - 2.05) < 0.25
-    return bool((r.path[at_wall, 1] < 1.25).all())
-
-
 @pytest.mark.parametrize("params, direct, astar_direct", [
     ({}, False, False),                                      # 5 x (40 x 3) and 5 x 40 > the detour's ~2.7 x 50
     ({"cost_factor": 0.1}, True, False),                     # 5 x 4 < 2.7 x 50; A* weighs the raw 40
     ({"neutral_cost": 255}, True, True),                     # 5 x 120 and 5 x 40 < 2.7 x 255
     ({"cost_factor": 0.1, "lethal_cost": 40}, False, False),  # cost 40 >= lethal_cost - 1: forbidden
 ])
-def test_lethal_neutral_and_cost_factor_choose_the_route(params, direct, astar_direct):
+def test_lethal_neutral_and_cost_factor_choose_the_route(params, direct, astar_direct, two_gaps):
     """Dijkstra weighs a cell c * cost_factor + neutral_cost, A* (AStarExpansion) c +
     neutral_cost whatever cost_factor says."""
-    cm = _two_gaps()
+    cm = two_gaps.costmap()
     for use_dijkstra, expect in ((True, direct), (False, astar_direct)):
         planner = GlobalPlanner.from_params(dict(params, use_dijkstra=use_dijkstra))
         r = planner.make_plan(cm, (0.25, 1.05), (3.75, 1.05))
         assert r.ok, r.reason
-        assert _through_direct_gap(r) == expect, use_dijkstra
+        assert two_gaps.through_direct_gap(r) == expect, use_dijkstra
 
 
 def test_allow_unknown_false_refuses_unknown_space():

@@ -194,33 +194,23 @@ def test_trajectory_deprecated_names_and_a_yaml_list(monkeypatch):
 
 
 # -- ~GlobalPlanner -------------------------------------------------------------------------------
-def _two_gaps():
-    """A wall with a direct gap of cost 40 and a free detour gap (test_global_planner's)."""
-    cm = Costmap2D(40, 21, 0.1)
-    cm.data[:, 18:23] = cv.LETHAL_OBSTACLE
-    cm.data[9:12, 18:23] = 40
-    cm.data[16:19, 18:23] = cv.FREE_SPACE
-    return cm
-
-
-def _direct(planner):
-    r = planner.make_plan(_two_gaps(), (0.25, 1.05), (3.75, 1.05, 0.7))
+def _direct(planner, two_gaps):
+    r = planner.make_plan(two_gaps.costmap(), (0.25, 1.05), (3.75, 1.05, 0.7))
     assert r.ok, r.reason
-    at_wall = np.abs(r.path[:, 0] - 2.05) < 0.25
-    return bool((r.path[at_wall, 1] < 1.25).all()), r
+    return two_gaps.through_direct_gap(r), r
 
 
-def test_global_change_reaches_the_next_plans(monkeypatch):
+def test_global_change_reaches_the_next_plans(monkeypatch, two_gaps):
     ros = FakeRos(monkeypatch)
     node = _fake_node(global_params={"allow_unknown": False})
     srv = _server(node, GP)
     c = srv.config
     assert (c["lethal_cost"], c["neutral_cost"], c["cost_factor"], c["orientation_mode"]) == (253, 50, 3.0, 1)
-    assert _direct(node.planner)[0] is False          # the dear gap: round by the free one
+    assert _direct(node.planner, two_gaps)[0] is False          # the dear gap: round by the free one
     cfg = srv.update_configuration({"cost_factor": 0.1, "orientation_mode": 4})   # Backward
     assert cfg["cost_factor"] == 0.1 and cfg["orientation_mode"] == 4
     for planner in (node.planner, node.service_planner, GlobalPlanner.from_params(node.plugins.global_params)):
-        direct, r = _direct(planner)
+        direct, r = _direct(planner, two_gaps)
         assert direct                                   # the gap's cost 40 x 0.1: straight through
         heading = np.arctan2(np.diff(r.path[:, 1]), np.diff(r.path[:, 0]))
         npt.assert_allclose(np.cos(r.yaws[1:-1] - heading[1:] - math.pi), 1.0, atol=0.05)
