@@ -28,3 +28,14 @@ def test_unnumbered_messages_are_never_counted():
     for _ in range(4):
         g.observe(0)
     assert (g.received, g.skipped) == (4, 0)
+
+
+def test_a_message_dropped_after_it_arrived_is_skipped_too():
+    """slam_gmapping's filter queue and the tf message filters drop the oldest scan when
+    full: the scan was received (no seq gap) but never used."""
+    g = SeqGaps()
+    for s in (1, 2, 3):
+        g.observe(s)
+    g.drop()
+    g.observe(5)
+    assert (g.received, g.skipped, g.dropped) == (4, 2, 1)

@@ -2,7 +2,8 @@
 
 amcl, slam_gmapping and move_base's costmaps take scans through a short subscriber queue,
 so a node that cannot keep up loses scans without a word. ScanStats counts them from
-header.seq (summit_nav_common.seq_gaps) at the top of the scan callback and reports:
+header.seq (summit_nav_common.seq_gaps) at the top of the scan callback, and the scans
+the node itself gives up from a full queue of its own (drop()), and reports:
 - ``~scans_skipped`` (std_msgs/UInt32, latched): the total over the node's scan topics,
   published at once and then within a second of each change;
 - one warning the first time a topic skips, with the gap seen;
@@ -45,6 +46,16 @@ class ScanStats:
                           f"{rospy.resolve_name('~scans_skipped')}")
         return gap
 
+    def drop(self, topic: str, where: str) -> None:
+        """Count one scan of topic received and then given up from the full queue `where`."""
+        with self.lock:
+            gaps = self.topics.setdefault(topic, SeqGaps())
+            first = gaps.dropped == 0
+            gaps.drop()
+        if first:
+            rospy.logwarn(f"{self.label}: fell behind on {topic}: a scan dropped from {where}; the "
+                          f"running count is on {rospy.resolve_name('~scans_skipped')}")
+
     @property
     def skipped(self) -> int:
         with self.lock:
@@ -63,6 +74,8 @@ class ScanStats:
 
     def _summary(self):
         with self.lock:
-            lines = [f"{t}: {g.received} received, {g.skipped} skipped" for t, g in sorted(self.topics.items())]
+            lines = [f"{t}: {g.received} received, {g.skipped} skipped"
+                     + (f" ({g.dropped} of them from the node's queues)" if g.dropped else "")
+                     for t, g in sorted(self.topics.items())]
         if lines:
             rospy.loginfo(f"{self.label}: scans at shutdown: " + "; ".join(lines))
