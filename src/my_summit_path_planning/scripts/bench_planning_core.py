@@ -28,12 +28,13 @@
    (TrajectoryPlannerROS: base_local_planner_params.yaml, the navigation_stage lesson's
    values with the Summit's turning limits and the planner's sim_time), the dwa flag from
    the option. --matrix runs every combination over the same pairs and prints a table;
-   each combination is one JSON key (combination_key).
+   each combination is one JSON key (combination_key). --jobs N runs N combinations at a
+   time in forked processes (the closed loop is simulated and seeded: the same figures).
 
 Parameters come from the package's config/*.yaml. Usage:
   bench_planning_core.py [--runs 50] [--willow-runs 20] [--repeats 3] [--json PATH]
                          [--max-vel-x 1.5] [--global-planner navfn|astar|dijkstra]
-                         [--local-planner dwa|trajectory|trajectory-dwa] [--matrix]
+                         [--local-planner dwa|trajectory|trajectory-dwa] [--matrix] [--jobs 2]
   replay one run: --skip-navfn --runs 10 --only 7 -v --trace 0.5
 """
 import argparse
@@ -410,6 +411,25 @@ def _r(x):
     return "-" if x is None else f"{x:.2f}"
 
 
+def run_jobs(run, jobs, n_procs):
+    """[run(job) for job in jobs], n_procs at a time in forked children (run may be a
+    closure: the children inherit it; only its result goes back, pickled)."""
+    if n_procs <= 1 or len(jobs) <= 1:
+        return [run(job) for job in jobs]
+    import multiprocessing
+    global _FORKED_RUN
+    _FORKED_RUN = run
+    with multiprocessing.get_context("fork").Pool(n_procs) as pool:
+        return pool.map(_forked_run, jobs, chunksize=1)
+
+
+_FORKED_RUN = None
+
+
+def _forked_run(job):
+    return _FORKED_RUN(job)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=50, help="closed-loop runs on the built-in world")
@@ -432,6 +452,7 @@ def main(argv=None):
                     help="the closed loop's global planner (astar, dijkstra: global_planner/GlobalPlanner)")
     ap.add_argument("--matrix", action="store_true",
                     help="closed loop of every (global, local) planner combination over the same pairs")
+    ap.add_argument("--jobs", type=int, default=1, help="closed-loop combinations run at a time (processes)")
     args = ap.parse_args(argv)
     params = load_move_base_params(CONFIG)
     out = {"max_vel_x": combination_params(params, max_vel_x=args.max_vel_x).dwa.max_vel_x}
@@ -477,23 +498,30 @@ def main(argv=None):
               f"{d['p90_ms']:.2f} ms, {d['samples']} samples", flush=True)
     combos = [(g, loc) for g in GLOBAL_PLANNERS for loc in LOCAL_PLANNERS] if args.matrix \
         else [(args.global_planner, args.local_planner)]
-    done = []
+    jobs = []   # (world, path, n_runs, pairs, global_kind, local_kind)
     for world, path in WORLDS:
         n_runs = {"builtin": args.runs, "willow": args.willow_runs}[world]
         if n_runs <= 0:
             continue
         pairs = draw_pairs(params, path, n_runs, args.seed)
-        for global_kind, local_kind in combos:
-            t0 = time.time()
-            c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace, local_kind,
-                            global_kind, pairs, args.max_vel_x)
-            c["wall_s"] = time.time() - t0
-            out[combination_key(world, global_kind, local_kind)] = c
-            done.append((world, c))
-            print(f"closed loop {os.path.basename(path)} ({global_kind} + {local_kind}): "
-                  f"{c['reached_share'] * 100:.0f}% of {c['runs']} reached, {c['collisions']} collisions, "
-                  f"time / (L / max_vel_x) median: L geodesic {_r(c['geodesic_ratio_median'])}, "
-                  f"L plan {_r(c['ratio_median'])} ({c['wall_s']:.0f} s wall)", flush=True)
+        jobs += [(world, path, n_runs, pairs, g, loc) for g, loc in combos]
+
+    def run(job):
+        world, path, n_runs, pairs, global_kind, local_kind = job
+        t0 = time.time()
+        c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace, local_kind,
+                        global_kind, pairs, args.max_vel_x)
+        c["wall_s"] = time.time() - t0
+        print(f"closed loop {os.path.basename(path)} ({global_kind} + {local_kind}): "
+              f"{c['reached_share'] * 100:.0f}% of {c['runs']} reached, {c['collisions']} collisions, "
+              f"time / (L / max_vel_x) median: L geodesic {_r(c['geodesic_ratio_median'])}, "
+              f"L plan {_r(c['ratio_median'])} ({c['wall_s']:.0f} s wall)", flush=True)
+        return c
+
+    done = []
+    for job, c in zip(jobs, run_jobs(run, jobs, args.jobs)):
+        out[combination_key(job[0], job[4], job[5])] = c
+        done.append((job[0], c))
     if len(done) > 1:
         print("\n".join(matrix_table(done)), flush=True)
     out["peak_rss_mb"] = peak_rss_mb()
