@@ -90,9 +90,9 @@ class ExploreNode:
         with self.lock:
             self.costmap = msg
 
-    def _on_done(self, state, _result):
+    def _on_done(self, number, state):
         with self.lock:
-            self.explore.goal_done(state)
+            self.explore.goal_done(number, state)
 
     def robot_pose(self, frame):
         """(x, y, yaw) of the robot in frame."""
@@ -135,7 +135,8 @@ class ExploreNode:
             goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = r.send.goal
             o = goal.target_pose.pose.orientation
             o.z, o.w = math.sin(r.goal_yaw / 2), math.cos(r.goal_yaw / 2)
-            self.client.send_goal(goal, done_cb=self._on_done)
+            n = self.explore.sent   # this goal's number: its done callback names it
+            self.client.send_goal(goal, done_cb=lambda state, _result: self._on_done(n, state))
         return r.over
 
     def save(self):
