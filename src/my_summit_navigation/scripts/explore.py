@@ -76,7 +76,10 @@ class ExploreNode:
         self.map_msg = None
         self.tf = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf)
-        self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        # the plain ActionClient: each goal's handle reports its own end (SimpleActionClient
+        # tracks one goal, and a late end of the previous one can mark the next one done)
+        self.client = actionlib.ActionClient("move_base", MoveBaseAction)
+        self.goal_handle = None   # the active goal's (kept: the client holds it weakly)
         rospy.Subscriber(rospy.get_param("~costmap_topic", "move_base/global_costmap/costmap"),
                          numpy_msg(OccupancyGrid), self._on_costmap, queue_size=1, buff_size=2 ** 25)
         rospy.Subscriber("map", numpy_msg(OccupancyGrid), lambda m: setattr(self, "map_msg", m),
@@ -90,9 +93,10 @@ class ExploreNode:
         with self.lock:
             self.costmap = msg
 
-    def _on_done(self, state, _result):
-        with self.lock:
-            self.explore.goal_done(state)
+    def _on_transition(self, number, handle):
+        if handle.get_comm_state() == actionlib.CommState.DONE:
+            with self.lock:
+                self.explore.goal_done(number, handle.get_goal_status())
 
     def robot_pose(self, frame):
         """(x, y, yaw) of the robot in frame."""
@@ -118,8 +122,8 @@ class ExploreNode:
                                   (info.origin.position.x, info.origin.position.y))
         for level, text in r.logs:
             (rospy.logwarn if level == "warn" else rospy.loginfo)(f"explore: {text}")
-        if r.cancel:
-            self.client.cancel_goal()
+        if r.cancel and self.goal_handle is not None:
+            self.goal_handle.cancel()
         if r.frontiers is not None:
             pa = PoseArray()
             pa.header = cm.header
@@ -135,7 +139,8 @@ class ExploreNode:
             goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = r.send.goal
             o = goal.target_pose.pose.orientation
             o.z, o.w = math.sin(r.goal_yaw / 2), math.cos(r.goal_yaw / 2)
-            self.client.send_goal(goal, done_cb=self._on_done)
+            n = self.explore.sent   # this goal's number: its callback names it
+            self.goal_handle = self.client.send_goal(goal, transition_cb=lambda h: self._on_transition(n, h))
         return r.over
 
     def save(self):

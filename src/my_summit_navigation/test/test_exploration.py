@@ -65,9 +65,31 @@ def test_no_progress_gives_up_then_one_more_try_then_over():
 def test_aborted_goal_is_given_up_at_once_and_not_counted_as_stuck():
     e = ex.Explore(PARAMS, stuck_goals=1)
     step(e, 0.0, (0.5, 1.0, 0.0), corridor_world())
-    e.goal_done(ex.ABORTED)
+    e.goal_done(1, ex.ABORTED)
     r = step(e, 1.0, (0.5, 1.0, 0.0), corridor_world())
     assert r.cancel and e.failed == 1 and r.over is None and "move_base aborted it" in r.logs[0][1]
+
+
+def test_late_end_of_the_previous_goal_does_not_end_the_next():
+    # Goal 1 counted as reached near it (REACHED, frontier in view) before move_base said
+    # so; goal 2 is sent in that round, then goal 1's SUCCEEDED arrives: goal 2 drives on.
+    e = ex.Explore(PARAMS)
+    step(e, 0.0, (0.5, 1.0, 0.0), corridor_world())
+    gx, gy = e.goal
+    g = corridor_world()                  # the map grew: known up to column 50
+    g[5:15, :50] = 0
+    g[4, :50] = 100
+    g[15, :50] = 100
+    r = step(e, 5.0, (gx - 0.2, gy, 0.0), g)
+    assert r.send is not None and e.sent == 2 and r.send.goal[0] > gx + 1.0
+    goal2 = e.goal
+    e.goal_done(1, ex.SUCCEEDED)          # goal 1's callback, late
+    r = step(e, 6.0, (gx, gy, 0.0), g)
+    assert e.goal == goal2 and r.send is None and not r.cancel and r.frontiers and not r.logs
+    assert not any(math.hypot(goal2[0] - x, goal2[1] - y) < 1e-9 for x, y in e.blacklist)
+    e.goal_done(2, ex.ABORTED)            # goal 2's own end counts
+    r = step(e, 7.0, (gx, gy, 0.0), g)
+    assert r.cancel and e.failed == 1 and "move_base aborted it" in r.logs[0][1]
 
 
 def test_stuck_robot_ends_exploration():

@@ -44,6 +44,21 @@ SPEED_MARGIN = 0.03  # [m/s] on the windowed speed (ground truth sampling, the b
 SETTLE = 1.0         # [s] sim after the change before the bound must hold
 
 
+def windowed_speeds(samples, t_from=-math.inf, t_to=math.inf):
+    """Speeds [m/s] over SPEED_WINDOW from [(t, x, y)] samples stamped in [t_from, t_to].
+
+    One value per sample that has a later sample at least SPEED_WINDOW after it (the
+    first such); empty when there is none (no sample yet, or a span below the window).
+    """
+    s = np.asarray(samples, dtype=float).reshape(-1, 3)
+    s = s[(s[:, 0] >= t_from) & (s[:, 0] <= t_to)]
+    j = np.searchsorted(s[:, 0], s[:, 0] + SPEED_WINDOW)
+    ok = j < len(s)
+    i, j = np.flatnonzero(ok), j[ok]
+    d = np.hypot(s[j, 1] - s[i, 1], s[j, 2] - s[i, 2])
+    return d / (s[j, 0] - s[i, 0])
+
+
 class Speed:
     """Ground-truth speed: [(t_end, distance / SPEED_WINDOW)] over sliding windows."""
 
@@ -59,13 +74,8 @@ class Speed:
 
     def speeds(self, t_from=-math.inf, t_to=math.inf):
         with self.lock:
-            s = np.array(self.samples)
-        s = s[(s[:, 0] >= t_from) & (s[:, 0] <= t_to)]
-        j = np.searchsorted(s[:, 0], s[:, 0] + SPEED_WINDOW)
-        ok = j < len(s)
-        i, j = np.flatnonzero(ok), j[ok]
-        d = np.hypot(s[j, 1] - s[i, 1], s[j, 2] - s[i, 2])
-        return d / (s[j, 0] - s[i, 0])
+            samples = list(self.samples)
+        return windowed_speeds(samples, t_from, t_to)
 
     def now(self):
         v = self.speeds(rospy.Time.now().to_sec() - 2 * SPEED_WINDOW)

@@ -70,9 +70,12 @@ class Explore:
         self.failed = 0             # goals aborted or without progress
         self.empty_rounds = 0       # rounds in a row that found no frontier
 
-    def goal_done(self, state):
-        """move_base ended the active goal with GoalStatus state."""
-        self.goal_state = state
+    def goal_done(self, number, state):
+        """move_base ended goal number (1 for the first goal sent, as in the logs) with
+        GoalStatus state. The end of an earlier goal is ignored: it can arrive after the
+        round that counted that goal as reached has sent the next one."""
+        if number == self.sent:
+            self.goal_state = state
 
     def _give_up(self, out, why, robot, no_progress=False):
         """Blacklist the active goal and cancel it; the reason exploration is over when the
