@@ -505,7 +505,7 @@ def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, reso
 
 
 # ------------------------------------------------------------ compiled tracing
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _line_cell(start, d, n, k, axis):
     """Cell coordinate `axis` of step k of n on the Bresenham line start -> start + d
     (bresenham_cells' rounding: floor((2 k d + n) / (2 n)), in integers)."""
@@ -514,7 +514,7 @@ def _line_cell(start, d, n, k, axis):
     return start[axis] + (2 * k * d[axis] + n) // (2 * n)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _touched_patches(start, end_cells):
     """Patch keys (M, 2) [py, px] the Bresenham lines from start (2,) to end_cells (B, 2) pass."""
     lo_x, lo_y = start[0], start[1]
@@ -540,7 +540,7 @@ def _touched_patches(start, end_cells):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _trace_into(store, table, py0, px0, cols, start, end_cells, ends, is_hit, resolution, count_limit):
     """trace_scan's counting, straight into the pool's patches (every patch the lines pass
     must be in `table` and writable). A patch whose cell would pass count_limit visits is
@@ -563,7 +563,7 @@ def _trace_into(store, table, py0, px0, cols, start, end_cells, ends, is_hit, re
                 store[slot, SUM_Y, r, c] += ends[b, 1] - y * resolution
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _add_hits_into(store, table, py0, px0, cols, cells, ends, resolution, count_limit):
     """PatchGrid.add_hits' counting, straight into the pool's (writable) patches."""
     for b in range(cells.shape[0]):

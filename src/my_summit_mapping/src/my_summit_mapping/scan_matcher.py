@@ -21,8 +21,9 @@ improves, halve both steps; stop after `iterations` halvings without improvement
 
 Speed: the score and the climb are compiled (numba) and read every particle's cells
 straight from the grids' shared PatchPool through per-particle tables of patch slots
-(MapTables). `score_reference` / `optimize_reference` compute the same with plain Python
-over PatchGrid.read_layers: the test oracles.
+(MapTables). They release the GIL (nogil): the node's scan and tf threads go on while the
+filter thread matches. `score_reference` / `optimize_reference` compute the same with
+plain Python over PatchGrid.read_layers: the test oracles.
 """
 import math
 from dataclasses import dataclass
@@ -118,7 +119,7 @@ def map_tables(grids: Sequence[PatchGrid]) -> MapTables:
 
 
 # ------------------------------------------------------------ compiled core
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _beam_sums(store, py0, px0, rows, cols, offset, slots, i, pose, laser, bx, by, res,
                sigma, lsigma, kernel_size, null_loglik):
     """(score, log-likelihood) of particle i's map at base pose (3,) (module docstring)."""
@@ -166,7 +167,7 @@ def _beam_sums(store, py0, px0, rows, cols, offset, slots, i, pose, laser, bx, b
     return score, loglik
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _optimize(store, py0, px0, rows, cols, offset, slots, init, laser, bx, by, res, sigma,
               kernel_size, lstep, astep, iterations, moves, max_rounds):
     """ScanMatcher::optimize for every particle i from init[i]: (poses (N, 3), best scores (N,))."""
@@ -206,7 +207,7 @@ def _optimize(store, py0, px0, rows, cols, offset, slots, init, laser, bx, by, r
     return out, best_scores
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _likelihoods(store, py0, px0, rows, cols, offset, slots, poses, laser, bx, by, res, sigma, lsigma,
                  kernel_size, null_loglik):
     n = poses.shape[0]
