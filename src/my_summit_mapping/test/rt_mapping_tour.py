@@ -39,6 +39,20 @@ MAX_ATE = 0.05         # [m]
 TOUR_TIMEOUT = 330.0   # [s wall] the tour is ~170 s simulated, 4x real time
 
 
+def dump(result, map_msg):
+    """Saves what tells a SLAM slip from a gap in the recorded truth (the SLAM trajectory and
+    the truth at its stamps, the final map) under ROS_HOME; returns the file's path."""
+    import numpy as np
+    import rospkg
+    info = map_msg.info
+    path = os.path.join(rospkg.get_ros_home(), "mapping_tour_dump.npz")
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    np.savez_compressed(path, trajectory=result["trajectory"], truth=result["truth"],
+                        map=np.asarray(map_msg.data, np.int8).reshape(info.height, info.width),
+                        map_origin=(info.origin.position.x, info.origin.position.y), resolution=info.resolution)
+    return path
+
+
 class MappingTour(unittest.TestCase):
     def test_tour_map_quality(self):
         rospy.init_node("mapping_tour_test")
@@ -69,6 +83,8 @@ class MappingTour(unittest.TestCase):
                       f"{r['recall']:.3f}, {r['processed_scans']} processed scans, {r['occupied_cells']} "
                       f"occupied cells, {r['seen_wall_cells']} seen wall cells "
                       f"(evaluated in {time.monotonic() - t0:.1f} s)")
+        if r["ate_m"] > MAX_ATE or r["precision"] < MIN_PRECISION or r["recall"] < MIN_RECALL:
+            rospy.logerr(f"mapping_tour: the run's trajectory, truth and map: {dump(r, recorder.map_msg)}")
         self.assertGreater(r["processed_scans"], 50)
         self.assertLessEqual(r["ate_m"], MAX_ATE)
         self.assertGreaterEqual(r["precision"], MIN_PRECISION)
