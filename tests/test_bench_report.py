@@ -289,3 +289,16 @@ def test_stack_cpu_rows_name_the_reference_and_sort_the_profile():
     assert bench_report.rows_stack_cpu(over)[0]["met"] is False
     bare = {k: v for k, v in res.items() if k != "profile"}
     assert len(bench_report.rows_stack_cpu(bare)) == 3
+
+
+def test_max_urange_lesson_row_is_met_only_when_2_m_is_visibly_worse_and_7_m_holds():
+    def runs(ate, precision):
+        return [{"ate_m": ate, "precision": precision, "recall": 0.99}] * 3
+    rows = bench_report.max_urange_rows({"2": runs(1.4, 0.15), "7": runs(0.013, 0.997)})
+    assert len(rows) == 1 and rows[0]["met"] is True
+    assert "maxUrange 2 m: 1.400 m, 0.150" in rows[0]["measured"] and "maxUrange 7 m: 0.013 m" in rows[0]["measured"]
+    # no visible difference: the lesson does not hold
+    assert bench_report.max_urange_rows({"2": runs(0.02, 0.99), "7": runs(0.013, 0.997)})[0]["met"] is False
+    # 7 m itself fails the tour's targets
+    assert bench_report.max_urange_rows({"2": runs(1.4, 0.15), "7": runs(0.2, 0.8)})[0]["met"] is False
+    assert bench_report.max_urange_rows(None) == []

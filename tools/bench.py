@@ -246,9 +246,23 @@ def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS):
     return res
 
 
+LESSON_MAX_URANGE = (2.0, 7.0)   # [m] the course's maxUrange lesson: 2.0 degrades the map, 7.0 does not
+LESSON_SIM_SEEDS = (0, 1, 2)
+
+
 def bench_slam_sim(runs):
-    return _run_script("my_summit_mapping", "bench_slam_sim.py",
-                       ["--runs", str(runs), "--speed", "3", "--out", OUT, "--profile"], "bench_slam_sim.json")
+    """The live node on the tour (bench_slam_sim.py), then the course's maxUrange lesson
+    with the SLAM core offline on the same tour (slam_tour_offline.py, one filter seed per
+    simulator seed)."""
+    res = _run_script("my_summit_mapping", "bench_slam_sim.py",
+                      ["--runs", str(runs), "--speed", "3", "--out", OUT, "--profile"], "bench_slam_sim.json")
+    res["max_urange_lesson"] = {}
+    for mu in LESSON_MAX_URANGE:
+        out = _run_script("my_summit_mapping", "slam_tour_offline.py",
+                          ["--sim-seeds"] + [str(s) for s in LESSON_SIM_SEEDS]
+                          + ["--filter-seeds", "0", "--set", f"maxUrange={mu:g}"], f"slam_lesson_mu{mu:g}.json")
+        res["max_urange_lesson"][f"{mu:g}"] = out["results"]
+    return res
 
 
 def bench_amcl(runs):

@@ -185,7 +185,29 @@ def rows_slam_sim(res):
             f"{m['cpu_per_sim_s']:.3f} s ({worst['cpu_per_sim_s']:.3f})",
             {"cpu_per_sim_s": m["cpu_per_sim_s"], "worst_cpu_per_sim_s": worst["cpu_per_sim_s"]},
             f"<= {SLAM_SIM_CPU} s", m["cpu_per_sim_s"] <= SLAM_SIM_CPU),
-    ] + profile_rows("slam_gmapping, one profiled tour", res.get("profile_shares"))
+    ] + max_urange_rows(res.get("max_urange_lesson")) \
+      + profile_rows("slam_gmapping, one profiled tour", res.get("profile_shares"))
+
+
+def max_urange_rows(lesson):
+    """The course's lesson: a short maxUrange (2 m) visibly degrades the map, 7 m does not
+    (the tour's figures hold)."""
+    if not lesson or "2" not in lesson or "7" not in lesson:
+        return []
+    stats = {}
+    for mu, runs in lesson.items():
+        stats[mu] = {"ate_m": float(statistics.median([r["ate_m"] for r in runs])),
+                     "precision": float(statistics.median([r["precision"] for r in runs])),
+                     "recall": float(statistics.median([r["recall"] for r in runs])), "runs": len(runs)}
+    short, long_ = stats["2"], stats["7"]
+    met = (long_["ate_m"] <= SLAM_SIM_ATE and long_["precision"] >= SLAM_SIM_PRECISION
+           and short["precision"] < SLAM_SIM_PRECISION)
+    text = "; ".join(f"maxUrange {mu} m: {st['ate_m']:.3f} m, {st['precision']:.3f} / {st['recall']:.3f}"
+                     for mu, st in sorted(stats.items(), key=lambda kv: float(kv[0])))
+    return [row(f"the course's maxUrange lesson, SLAM core offline on the tour ({long_['runs']} simulator seeds): "
+                "ATE, precision / recall, medians", text, stats,
+                f"2 m visibly worse (precision < {SLAM_SIM_PRECISION}); 7 m: <= {SLAM_SIM_ATE} m, "
+                f">= {SLAM_SIM_PRECISION}", met)]
 
 
 AMCL_UPDATE_MS = 10.0  # [ms] one filter update
