@@ -213,11 +213,14 @@ def bench_sim_rtf_runs(runs):
     return med
 
 
-def _run_script(package, script, args, json_name):
-    """src/<package>/scripts/<script> run with args and --json OUT/json_name; its JSON result."""
+def _run_script(package, script, args, json_name, check=True):
+    """src/<package>/scripts/<script> run with args and --json OUT/json_name; its JSON result.
+    check=False: a script that exits 1 when its runs miss their targets still gives its result."""
     path = os.path.join(OUT, json_name)
+    if os.path.exists(path):
+        os.remove(path)   # never a previous run's result
     subprocess.run([sys.executable, os.path.join(WS, "src", package, "scripts", script)] + args + ["--json", path],
-                   check=True)
+                   check=check)
     with open(path) as f:
         return json.load(f)
 
@@ -260,7 +263,8 @@ def bench_slam_sim(runs):
     for mu in LESSON_MAX_URANGE:
         out = _run_script("my_summit_mapping", "slam_tour_offline.py",
                           ["--sim-seeds"] + [str(s) for s in LESSON_SIM_SEEDS]
-                          + ["--filter-seeds", "0", "--set", f"maxUrange={mu:g}"], f"slam_lesson_mu{mu:g}.json")
+                          + ["--filter-seeds", "0", "--set", f"maxUrange={mu:g}"], f"slam_lesson_mu{mu:g}.json",
+                          check=False)   # 2 m misses the tour's targets: that is the lesson
         res["max_urange_lesson"][f"{mu:g}"] = out["results"]
     return res
 
