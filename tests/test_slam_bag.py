@@ -72,6 +72,32 @@ def test_node_parameters_follow_the_evaluation_settings():
     assert p["maxUrange"] == pytest.approx(29.99) and p["maxRange"] == pytest.approx(30.01) and p["particles"] == 5
 
 
+def test_offline_replay_of_a_log_feeds_the_filter_what_the_node_gets_from_its_bag(tmp_path):
+    """slam_bag_offline.py on a CARMEN log gives the filter the scans, odometry and beam
+    angles the node gets from the log's bag, bit for bit: the filter is chaotic, and on
+    the log's own float64 values ACES seed 1 ended at an online ATE of 0.868 m where the
+    live run (and the replay of its bag) gave 0.422 m."""
+    import numpy as np
+    sys.path.insert(0, os.path.dirname(RUNNER))
+    import slam_bag_offline
+    from my_summit_mapping import carmen, carmen_bag, laser_mount
+    from summit_nav_common.geometry import quaternion_matrix
+
+    full = carmen.read_carmen(INTEL)
+    log = carmen.CarmenLog(ranges=full.ranges[:60], angles=full.angles, poses=full.poses[:60],
+                           timestamps=full.timestamps[:60], laser_offset=full.laser_offset)
+    bag = str(tmp_path / "intel_first60.bag")
+    carmen_bag.write_bag(carmen_bag.bag_scans(log, 2), bag)
+    from_bag, from_log = slam_bag_offline.load_scans(bag, 2), slam_bag_offline.load_scans("intel.log.gz", 2, log)
+    for name in ("stamps", "ranges", "odometry", "reference", "angle_min", "angle_increment", "range_max",
+                 "laser_offset"):
+        assert np.array_equal(getattr(from_log, name), getattr(from_bag, name)), name
+    # the beam angles: as the node computes them from the level mount's rotation
+    node = laser_mount.beam_angles_in_base(quaternion_matrix(0.0, 0.0, 0.0, 1.0), from_bag.angle_min,
+                                           from_bag.angle_increment, from_bag.ranges.shape[1])
+    assert np.array_equal(slam_bag_offline.beam_angles(from_log), node)
+
+
 @pytest.mark.integration
 def test_runner_reports_a_node_that_dies_and_stops_everything(tmp_path):
     import psutil

@@ -6,8 +6,14 @@ keeps up it processes every scan in order with the same parameters (bench_slam_b
 node_params), the same laser mount and the filter's rng seeded with the run's seed, so
 this replay makes the same filter updates and scores the same online estimate (the
 map -> odom after the latest update at or before each scan, composed with the odometry;
-online_eval). It is cheap enough to search for a seed's divergence (--updates N stops
-after N filter updates).
+online_eval). The scans are what the node receives: a bag's as read back, a CARMEN log's
+rounded as the bag's messages round them (carmen_bag.as_received), the beam angles as
+the node turns them into the base frame; the filter is chaotic, and anything less gives
+another run. (Runs are not bit-reproducible even so: two processes can differ by 1e-15 m
+after some tens of updates, which the filter may amplify; the live ACES seeds 1-3 at rate
+4 came out of one replay of the log to the millimetre.) It is cheap enough to search for
+a seed's divergence (--updates N stops after N filter updates) or to see a figure's
+spread over many seeds.
 
 Usage: slam_bag_offline.py LOG [--seeds 1 2] [--updates N] [--set name=value ...]
                                [--json PATH] [--profile PATH]
@@ -28,7 +34,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
 from bench_slam_bag import node_params, parse_set  # noqa: E402
-from my_summit_mapping import carmen, carmen_bag, metrics, online_eval  # noqa: E402
+from my_summit_mapping import carmen, carmen_bag, laser_mount, metrics, online_eval  # noqa: E402
 from my_summit_mapping.rbpf import RbpfSlam  # noqa: E402
 from my_summit_mapping.slam_config import SlamConfig  # noqa: E402
 
@@ -37,8 +43,7 @@ def replay(scans, seed, overrides=None, max_updates=None):
     """Feed scans (carmen_bag.BagScans) to RbpfSlam as the node does; a result dict."""
     params = node_params(scans, overrides)
     slam = RbpfSlam(SlamConfig.from_dict(params), np.random.default_rng(seed))
-    n = scans.ranges.shape[1]
-    angles = scans.angle_min + scans.angle_increment * np.arange(n)
+    angles = beam_angles(scans)
     laser = (float(scans.laser_offset), 0.0, 0.0)
     m2o = np.zeros((len(scans.stamps), 3))
     current = np.zeros(3)
@@ -65,6 +70,21 @@ def replay(scans, seed, overrides=None, max_updates=None):
                 peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0), slam
 
 
+def beam_angles(scans):
+    """Beam directions (n,) [rad] in the base frame, as the node computes them for the
+    bag's level, unrotated laser mount."""
+    return laser_mount.beam_angles_in_base(np.eye(3), scans.angle_min, scans.angle_increment,
+                                           scans.ranges.shape[1])
+
+
+def load_scans(log, seed, carmen_log=None):
+    """The scans the node gets for `seed` from LOG: a bag's as stored, a CARMEN log's (or
+    the already read carmen_log's) drifted with the seed and rounded as in its bag."""
+    if log.endswith(".bag"):
+        return carmen_bag.read_bag(log)
+    return carmen_bag.as_received(carmen_bag.bag_scans(carmen_log or carmen.read_carmen(log), seed))
+
+
 def _update_scans(slam, scans, k_end):
     """Indices of the scans the filter updated on (matched by timestamp)."""
     return np.searchsorted(scans.stamps[:k_end], slam.trajectory_times())
@@ -85,7 +105,7 @@ def main(argv=None):
     print(f"{'seed':>4} {'scans':>6} {'updates':>7} {'ATE online':>10} {'ATE path':>9} {'ATE odom':>9} "
           f"{'CPU s':>7} {'ms/update':>9} {'resamples':>9} {'RSS MB':>7}")
     for seed in args.seeds:
-        scans = carmen_bag.read_bag(args.log) if log is None else carmen_bag.bag_scans(log, seed)
+        scans = load_scans(args.log, seed, log)
         prof = cProfile.Profile() if args.profile and not results else None
         if prof:
             prof.enable()

@@ -78,3 +78,50 @@ def test_expected_updates_follow_linear_and_angular_thresholds():
     assert online_eval.expected_updates(odom[:1], 0.2, 0.1) == 1
     assert online_eval.expected_updates(np.zeros((0, 3)), 0.2, 0.1) == 0
     assert online_eval.expected_updates(odom, 0.0, 0.0) == len(odom)
+
+
+def _ellipse(n=40):
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.column_stack((3 * np.cos(t), 2 * np.sin(t), t + np.pi / 2))
+
+
+def test_error_series_is_zero_up_to_a_rigid_motion_and_finds_a_heading_offset():
+    ref = _ellipse()
+    moved = online_eval.compose(np.tile([5.0, -1.0, 0.7], (len(ref), 1)), ref)
+    err, heading = online_eval.error_series(moved, ref)
+    assert_allclose(err, 0.0, atol=1e-9)
+    assert_allclose(heading, 0.0, atol=1e-9)
+    turned = moved + [0.0, 0.0, 0.1]              # positions right, every heading 0.1 rad off
+    assert_allclose(online_eval.error_series(turned, ref)[1], 0.1, atol=1e-9)
+
+
+def test_error_series_rms_is_the_ate():
+    ref = _ellipse()
+    est = ref + np.random.default_rng(4).normal(0.0, 0.1, ref.shape)
+    err, _ = online_eval.error_series(est, ref)
+    assert float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) == pytest.approx(
+        online_eval.metrics.ate_rmse(est, ref), rel=1e-12)
+
+
+def test_step_errors_find_one_long_step_in_any_frame():
+    # a straight run north; the estimate's step 3 is 0.3 m too long, the rest exact
+    ref = np.column_stack((np.zeros(8), 0.5 * np.arange(8), np.full(8, np.pi / 2)))
+    est = ref.copy()
+    est[4:, 1] += 0.3
+    est = online_eval.compose(np.tile([2.0, 1.0, -0.4], (8, 1)), est)  # the estimate's own frame
+    steps = online_eval.step_errors(est, ref)
+    want = np.zeros((7, 3))
+    want[3, 0] = 0.3                               # along track
+    assert_allclose(steps, want, atol=1e-9)
+    assert online_eval.step_errors(ref[:1], ref[:1]).shape == (0, 3)
+
+
+def test_update_delays_after_the_latest_scan():
+    scans = np.array([10.0, 12.0, 14.0])
+    tf_t = np.array([9.0, 9.5, 10.3, 10.35, 12.5, 14.2, 14.25])
+    tf_v = np.array([[0, 0, 0], [0.1, 0, 0],      # 9.5: a change before the first scan: left out
+                     [0.2, 0, 0], [0.2, 0, 0],    # 10.3: 0.3 s after scan 0; 10.35 the same value
+                     [0.2, 0.1, 0], [0.2, 0.1, 0.05], [0.3, 0.1, 0.05]], float)
+    delays, per_scan = online_eval.update_delays(scans, tf_t, tf_v)
+    assert_allclose(delays, [0.3, 0.5, 0.2, 0.25])
+    assert per_scan.tolist() == [1, 1, 2]

@@ -13,14 +13,17 @@ ahead, else identity), STATIC_LEAD before the first scan so that a node has the 
 mount when the first scan comes. Stamps are the FLASER ipc timestamps made strictly increasing
 (carmen.monotonic_stamps): the Intel log goes back in time four times.
 
-`bag_scans` is the pure part (numpy only): the arrays, from a CarmenLog and a seed.
-`write_bag` / `read_bag` turn them into a bag and back (rosbag and the message classes
-are imported there, so the pure part is usable without ROS).
+`bag_scans` is the pure part (numpy only): the arrays, from a CarmenLog and a seed;
+`as_received` rounds them as the messages do (float32 ranges and LaserScan angles, yaw
+through a quaternion, stamps in whole nanoseconds), so that a replay without ROS feeds
+the filter exactly what the live node gets from the bag. `write_bag` / `read_bag` turn
+them into a bag and back (rosbag and the message classes are imported there, so the pure
+part is usable without ROS).
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-from summit_nav_common.geometry import quaternion_to_yaw, yaw_to_quaternion_zw
+from summit_nav_common.geometry import quaternion_to_yaw, yaw_of_quaternion, yaw_to_quaternion_zw
 
 from . import carmen
 
@@ -63,6 +66,25 @@ def bag_scans(log: carmen.CarmenLog, seed: int) -> BagScans:
                     angle_increment=float(log.angles[1] - log.angles[0]), range_max=no_return,
                     odometry=odom, reference=log.poses.copy(), laser_offset=log.laser_offset,
                     seed=seed, stamps_moved=int(np.sum(stamps != log.timestamps)))
+
+
+def as_received(scans: BagScans) -> BagScans:
+    """`scans` as read back from their bag (read_bag) and as the live node gets them:
+    ranges, angle_min, angle_increment and range_max rounded to float32 (LaserScan's
+    fields), every yaw through the quaternion written for it, stamps truncated to whole
+    nanoseconds as rospy.Time.from_sec does. The filter is chaotic: a replay fed the
+    float64 values of the log drifts away from the live run within a few hundred updates."""
+    def via_quaternion(poses):
+        out = np.array(poses, float)
+        out[:, 2] = [yaw_of_quaternion(0.0, 0.0, *yaw_to_quaternion_zw(float(t))) for t in out[:, 2]]
+        return out
+
+    nsec = np.array([int(t) * 1000000000 + int((t - int(t)) * 1000000000) for t in map(float, scans.stamps)])
+    f32 = lambda v: float(np.float32(v))  # noqa: E731
+    return replace(scans, stamps=nsec * 1e-9,
+                   ranges=scans.ranges.astype(np.float32).astype(float), angle_min=f32(scans.angle_min),
+                   angle_increment=f32(scans.angle_increment), range_max=f32(scans.range_max),
+                   odometry=via_quaternion(scans.odometry), reference=via_quaternion(scans.reference))
 
 
 def _yaw_quaternion(q, yaw):

@@ -15,6 +15,13 @@ initialization on the first scan) leaves it at the identity. The expected number
 gmapping's gate (GridSlamProcessor::processScan): the first scan, then every scan after
 which the odometry has travelled >= linearUpdate or turned >= angularUpdate since the
 last update (temporalUpdate off, as by default).
+
+Where the error comes from (error_series, step_errors, update_delays): the per-scan
+position and heading error after that same alignment, the error of each step's pose
+increment in the reference step's frame (along track, across, heading: a jump when the
+best particle changes or a loop closes, a slow drift, the scan matcher's step noise
+against the odometry's), and how long after a scan its map -> odom changed (a node
+that lags judged on older corrections).
 """
 from typing import Tuple
 
@@ -56,6 +63,45 @@ def online_ate(scan_stamps, odometry, reference, tf_stamps, tf_values) -> Tuple[
     """(ATE RMSE [m] of the online trajectory against reference (K, 3), the trajectory)."""
     traj = online_trajectory(scan_stamps, odometry, tf_stamps, tf_values)
     return metrics.ate_rmse(traj, reference), traj
+
+
+def error_series(estimate: np.ndarray, reference: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Per-pose error of estimate (K, 3) against reference (K, 3) after the best rigid 2D
+    alignment of the positions (as ate_rmse): (position error vectors (K, 2) [m] in the
+    reference frame, heading error (K,) [rad] wrapped to [-pi, pi))."""
+    est, ref = np.asarray(estimate, float), np.asarray(reference, float)
+    rot, t = metrics.rigid_alignment_2d(est, ref)
+    err = est[:, :2] @ rot.T + t - ref[:, :2]
+    heading = est[:, 2] + np.arctan2(rot[1, 0], rot[0, 0]) - ref[:, 2]
+    return err, (heading + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def step_errors(estimate: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Error (K-1, 3) of each step's increment (along [m], across [m], heading [rad]):
+    the estimate's increment from pose k to k+1 minus the reference's, both taken in
+    their own pose k's frame (odometry_increment). Independent of any alignment."""
+    est, ref = np.asarray(estimate, float), np.asarray(reference, float)
+    out = np.empty((max(len(est) - 1, 0), 3))
+    for k in range(len(out)):
+        out[k] = odometry_increment(est[k], est[k + 1]) - odometry_increment(ref[k], ref[k + 1])
+    out[:, 2] = (out[:, 2] + np.pi) % (2.0 * np.pi) - np.pi
+    return out
+
+
+def update_delays(scan_stamps: np.ndarray, tf_stamps: np.ndarray,
+                  tf_values: np.ndarray, tol: float = CHANGE_TOL) -> Tuple[np.ndarray, np.ndarray]:
+    """When map -> odom changed relative to the scans: (delay (U,) [s] of each change
+    (tf_stamps (T,) ascending, tf_values (T, 3); the first change from the identity
+    included) after the last scan stamped at or before it, changes (K,) per scan).
+    Changes before the first scan are left out."""
+    scans = np.asarray(scan_stamps, float)
+    t = np.asarray(tf_stamps, float)
+    v = np.asarray(tf_values, float).reshape(-1, 3)
+    prev = np.vstack((np.zeros((1, 3)), v[:-1]))
+    changed = t[np.any(np.abs(v - prev) > tol, axis=1)]
+    k = np.searchsorted(scans, changed, side="right") - 1
+    keep = k >= 0
+    return changed[keep] - scans[k[keep]], np.bincount(k[keep], minlength=len(scans))
 
 
 def count_updates(tf_values: np.ndarray, tol: float = CHANGE_TOL) -> int:
