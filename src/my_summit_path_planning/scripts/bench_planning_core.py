@@ -277,9 +277,12 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
     """Closed loop of one (global_kind, planner_kind) combination over n_runs seeded pairs
     (draw_pairs; pairs: already drawn ones). The planners are built by type string
     through plugins.MoveBasePlugins, as move_base builds them: the global planner once,
-    a fresh local planner per goal. only: run numbers (1-based) to simulate, the others
-    skipped (to replay a failure); trace: print the controller's state every trace [s]
-    of simulated time."""
+    a fresh local planner per goal. As move_base, a cycle in which the local planner finds
+    no command sends the robot back to planning (a new global plan, from the global
+    costmap with the current scan, before the next cycle's command); after
+    controller_patience without a command, the costmaps' obstacles are cleared. only: run
+    numbers (1-based) to simulate, the others skipped (to replay a failure); trace: print
+    the controller's state every trace [s] of simulated time."""
     from summit_xl_sim.sim import Simulation
     from summit_xl_sim.world import World
     p = combination_params(params, global_kind, planner_kind, max_vel_x)
@@ -311,6 +314,7 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
         optimal = first.length / cfg.max_vel_x if first.ok else geodesic_optimal
         limit = max(TIME_LIMIT_MIN, TIME_LIMIT_FACTOR * optimal)
         t, cycle, reached, fails, dwa_ms, stuck, recoveries = 0.0, 0, False, 0, [], 0, 0
+        replan_now = False  # the local planner failed: plan again next cycle (move_base's PLANNING)
         modes = {}          # [s] of simulated time per local planner mode (where the time goes)
         t_moving = None     # [s] first time the robot drives faster than half max_vel_x
         if first.ok:
@@ -325,7 +329,8 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
                         sim.laser_pose(st), True)
             loc.layer("obstacle_layer").add_observation(scan_to_observation(*obs_args, 4.0, 4.5))
             loc.update_map(*pose)
-            if replan_every and cycle % replan_every == 0 and cycle > 0:
+            if (replan_every and cycle % replan_every == 0 and cycle > 0) or replan_now:
+                replan_now = False
                 g_obs.add_observation(scan_to_observation(*obs_args, 4.0, 4.5))
                 g.update_map(*pose)
                 r = planner.make_plan(cm, pose[:2], (gx, gy))
@@ -355,6 +360,10 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
                     r = planner.make_plan(cm, pose[:2], (gx, gy))
                     if r.ok:
                         dwa.set_plan(r.path, gyaw)
+                else:
+                    # move_base goes back to PLANNING: a new global plan from the current
+                    # global costmap before the controller runs again
+                    replan_now = True
             else:
                 stuck = 0
             if trace and cycle % max(1, int(round(trace / period))) == 0:

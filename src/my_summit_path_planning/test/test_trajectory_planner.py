@@ -186,6 +186,27 @@ def test_obstacle_ahead_turns_away(fp):
     assert straight.cost[0] < 0 or straight.cost[0] > r.cost
 
 
+def test_only_the_path_wave_crosses_the_robot(fp):
+    """findBestPath marks the cells under the footprint within_robot in path_map_ alone: an
+    inscribed cell under the robot stops the goal wave, so a trajectory whose centre
+    crosses it has no way to the goal (cost -2), and with the centre on it nothing is legal."""
+    m = _costmap()
+    _box(m, 0.2, 0.0, 0.2, 0.0, cost=cv.INSCRIBED_INFLATED_OBSTACLE)   # cell (74, 70), under the front
+    p = _planner(fp, holonomic_robot=False, dwa=False)
+    p.set_plan(np.column_stack([np.linspace(-0.5, 3.4, 79), np.zeros(79)]), 0.0)
+    assert p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m).ok   # a curve round the cell
+    obstacle = float(m.data.size)
+    assert p.grids.path[70, 74] == 0.0              # on the plan, and the path wave crosses the robot
+    assert p.grids.goal[70, 74] == obstacle          # the goal wave does not
+    assert p.grids.goal[70, 75] < obstacle           # the far side reached round the cell
+    straight = tp.rollout(p.config, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), np.array([[0.3, 0.0, 0.0]]), m,
+                          p.grids, fp.polygon, p._biases(m))
+    assert straight.x[0, :straight.n[0]].max() > 0.2   # the centre passes x 0.2 .. 0.25
+    assert straight.cost[0] == tp.NO_WAY
+    r = p.compute_velocity((0.21, 0.01, 0.0), (0.0, 0.0, 0.0), m)   # centre on the cell
+    assert not r.ok and r.mode == "escape" and r.n_valid == 0
+
+
 def _open_map():
     """4 m x 2 m, origin (-1, -1): the hand-computed scoring case."""
     return Costmap2D(80, 40, RES, -1.0, -1.0)

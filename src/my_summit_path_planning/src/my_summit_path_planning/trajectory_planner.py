@@ -15,7 +15,8 @@ configures it. In the order one control cycle runs:
    from the local goal (where the plan leaves the costmap, or its end). A lethal,
    inscribed or unknown cell stops the wave and holds obstacle_cost (the number of
    cells); a cell the wave never reaches holds one more. Cells under the robot's
-   current footprint never stop the wave.
+   current footprint never stop the path wave (within_robot, set in the path grid
+   only): they still stop the goal wave, so no trajectory point lies on a blocked cell.
 3. ``velocity samples``: vx over [min_vel_x, max_vel_x] and vtheta over
    [min_vel_theta, max_vel_theta] clipped to what acc_lim_* reach within sim_time
    (Trajectory Rollout, dwa: false) or within one sim_period = 1/controller_frequency
@@ -514,12 +515,16 @@ class Grids:
 
 
 def map_grids(costmap, plan, polygon, pose, grid_fn=map_grid):
-    """Path and goal distance grids for the windowed plan (N, 2) [m] and the robot at pose."""
+    """Path and goal distance grids for the windowed plan (N, 2) [m] and the robot at pose.
+
+    Only the path grid's wave crosses the cells under the robot's footprint (findBestPath
+    marks within_robot in path_map_ alone): the goal grid's stops at every blocked cell,
+    so no trajectory point may lie on an inscribed, lethal or unknown cell."""
     within = footprint_cells(costmap, polygon, pose)
     mx, my = plan_cells(costmap, plan)
     path = grid_fn(costmap, (mx, my), within)
     goal_cell = (mx[-1:], my[-1:])
-    goal = grid_fn(costmap, goal_cell, within)
+    goal = grid_fn(costmap, goal_cell, np.zeros_like(within))
     return Grids(path=path, goal=goal, plan=np.asarray(plan, dtype=np.float64),
                  obstacle_cost=float(costmap.data.size))
 
