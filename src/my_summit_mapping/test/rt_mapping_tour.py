@@ -43,9 +43,8 @@ def dump(result, map_msg):
     """Saves what tells a SLAM slip from a gap in the recorded truth (the SLAM trajectory and
     the truth at its stamps, the final map) under ROS_HOME; returns the file's path."""
     import numpy as np
-    import rospkg
     info = map_msg.info
-    path = os.path.join(rospkg.get_ros_home(), "mapping_tour_dump.npz")
+    path = os.path.join(os.environ.get("ROS_HOME") or os.path.expanduser("~/.ros"), "mapping_tour_dump.npz")
     os.makedirs(os.path.dirname(path), exist_ok=True)
     np.savez_compressed(path, trajectory=result["trajectory"], truth=result["truth"],
                         map=np.asarray(map_msg.data, np.int8).reshape(info.height, info.width),
