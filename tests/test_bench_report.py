@@ -102,6 +102,8 @@ def test_readme_table_is_spliced_between_the_markers_only():
     laser = [line for line in lines if line.startswith("| laser scans/s")]
     first = bench_report.rows_laser(LASER)[0]
     assert len(laser) == 1 and laser[0].startswith(f"| {first['figure']} |") and laser[0].endswith("`aaaaaaa` |")
+    # the headline is met, the section's second target is not: the README says so
+    assert "| yes (section: 1 of 2 met) |" in laser[0]
     assert any("sim_rtf" in line and "not measured yet" in line for line in lines)
     with pytest.raises(ValueError, match="no"):
         bench_report.splice_readme("# no markers", store)
@@ -302,3 +304,10 @@ def test_max_urange_lesson_row_is_met_only_when_2_m_is_visibly_worse_and_7_m_hol
     # 7 m itself fails the tour's targets
     assert bench_report.max_urange_rows({"2": runs(1.4, 0.15), "7": runs(0.2, 0.8)})[0]["met"] is False
     assert bench_report.max_urange_rows(None) == []
+
+
+def test_readme_table_adds_no_count_when_every_target_of_the_section_is_met():
+    met_only = [dict(LASER[0])]
+    store = bench_report.merge(bench_report.empty_store(), [make_record("laser", met_only, "aaaaaaa")])
+    line = [x for x in bench_report.render_readme_table(store) if x.startswith("| laser scans/s")][0]
+    assert "| yes |" in line and "section:" not in line

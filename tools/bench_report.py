@@ -637,7 +637,9 @@ def render_page(store):
 
 def render_readme_table(store):
     """The README's table: each section's first row (its headline figure) with the
-    section's commit, and one line per section not measured yet; the page has every row."""
+    section's commit, and one line per section not measured yet; the page has every row.
+    A section with a missed target says how many of its targets are met, so a headline
+    that is met never hides a miss below it."""
     lines = ["| figure | measured | target | met | commit |", "| --- | --- | --- | --- | --- |"]
     sections = store.get("sections", {})
     for name in SECTIONS:
@@ -647,8 +649,12 @@ def render_readme_table(store):
                          f"| {NOT_APPLICABLE} | {NOT_APPLICABLE} | {NOT_APPLICABLE} |")
             continue
         r = rec["rows"][0]
+        judged = [x["met"] for x in rec["rows"] if x["met"] is not None]
+        met = met_text(r)
+        if not all(judged):
+            met += f" (section: {sum(judged)} of {len(judged)} met)"
         lines.append(f"| {_cell(r['figure'])} | {_cell(r['measured'])} | "
-                     f"{_cell(r['target'] if r['target'] is not None else NOT_APPLICABLE)} | {met_text(r)} "
+                     f"{_cell(r['target'] if r['target'] is not None else NOT_APPLICABLE)} | {met} "
                      f"| `{rec['commit']}` |")
     return lines
 
