@@ -26,6 +26,7 @@ that lags judged on older corrections).
 from typing import Tuple
 
 import numpy as np
+from summit_nav_common.geometry import wrap_angle
 
 from . import metrics
 from .motion_model import odometry_increment
@@ -73,7 +74,7 @@ def error_series(estimate: np.ndarray, reference: np.ndarray) -> Tuple[np.ndarra
     rot, t = metrics.rigid_alignment_2d(est, ref)
     err = est[:, :2] @ rot.T + t - ref[:, :2]
     heading = est[:, 2] + np.arctan2(rot[1, 0], rot[0, 0]) - ref[:, 2]
-    return err, (heading + np.pi) % (2.0 * np.pi) - np.pi
+    return err, wrap_angle(heading)
 
 
 def step_errors(estimate: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -84,7 +85,7 @@ def step_errors(estimate: np.ndarray, reference: np.ndarray) -> np.ndarray:
     out = np.empty((max(len(est) - 1, 0), 3))
     for k in range(len(out)):
         out[k] = odometry_increment(est[k], est[k + 1]) - odometry_increment(ref[k], ref[k + 1])
-    out[:, 2] = (out[:, 2] + np.pi) % (2.0 * np.pi) - np.pi
+    out[:, 2] = wrap_angle(out[:, 2])
     return out
 
 
