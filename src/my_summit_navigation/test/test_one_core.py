@@ -6,8 +6,6 @@ import subprocess
 import sys
 import time
 
-import pytest
-
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 # A parent with a second thread; on a line on stdin it starts a child (with its own
@@ -34,7 +32,6 @@ def _threads_of(pid):
     return [int(t) for t in os.listdir(f"/proc/{pid}/task")]
 
 
-@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="needs two CPUs to confine to one")
 def test_one_core_confines_the_tree_and_what_it_starts_later():
     rt = _load()
     root = subprocess.Popen([sys.executable, "-c", TREE], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
