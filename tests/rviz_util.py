@@ -9,13 +9,15 @@ own directory on sys.path first) and re-export the fixtures `spawn` and `xvfb`.
 import os
 import select
 import shutil
-import signal
-import socket
 import subprocess
+import sys
 import time
 
 import numpy as np
 import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
+from roslaunch_session import free_port, stop_process_tree  # noqa: E402,F401  (re-exported)
 
 SCREEN = (1280, 800)
 BACKGROUND = np.array([48, 48, 48])   # rviz's default background colour (RGB)
@@ -27,62 +29,6 @@ def need(*exes):
                and shutil.which(e) is None]
     if missing:
         pytest.fail("missing executables (run `make setup`): %s" % ", ".join(missing))
-
-
-def free_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def descendants(pid):
-    """PIDs of all processes below pid (from /proc)."""
-    children = {}
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open("/proc/%s/stat" % entry) as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-        except (OSError, IndexError, ValueError):
-            continue
-        children.setdefault(ppid, []).append(int(entry))
-    out, todo = [], [pid]
-    while todo:
-        for c in children.get(todo.pop(), []):
-            out.append(c)
-            todo.append(c)
-    return out
-
-
-def kill_group(proc, grace=8.0):
-    """SIGINT the process group led by proc.pid (started with start_new_session), then
-    SIGKILL the group and every process that was below it (roslaunch starts its nodes in
-    sessions of their own, so the group alone would miss a node that hangs on shutdown).
-    Only these PIDs: never anything found by name."""
-    if proc is None:
-        return
-    pgid = proc.pid
-    below = descendants(proc.pid) if proc.poll() is None else []
-    if proc.poll() is None:
-        try:
-            os.killpg(pgid, signal.SIGINT)
-            proc.wait(timeout=grace)
-        except (ProcessLookupError, subprocess.TimeoutExpired):
-            pass
-    try:
-        os.killpg(pgid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    for pid in below:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    try:
-        proc.wait(timeout=5)
-    except subprocess.TimeoutExpired:
-        pass
 
 
 @pytest.fixture
@@ -97,7 +43,7 @@ def spawn(request):
 
     def _fin():
         for p in reversed(procs):
-            kill_group(p)
+            stop_process_tree(p)
     request.addfinalizer(_fin)
     return _spawn
 
@@ -123,7 +69,7 @@ def start_xvfb(size=SCREEN):
     os.close(rfd)
     number = data.decode().strip()
     if not number.isdigit():
-        kill_group(proc, grace=3.0)
+        stop_process_tree(proc, grace=3.0)
         raise RuntimeError("Xvfb did not report a display number")
     return proc, ":" + number
 
@@ -136,7 +82,7 @@ def xvfb(request):
         proc, display = start_xvfb()
     except RuntimeError as e:
         pytest.fail(str(e))
-    request.addfinalizer(lambda: kill_group(proc, grace=3.0))
+    request.addfinalizer(lambda: stop_process_tree(proc, grace=3.0))
     return display
 
 

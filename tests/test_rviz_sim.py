@@ -26,7 +26,7 @@ import pytest
 import cv2  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from rviz_util import (BACKGROUND, SCREEN, kill_group, need, free_port,  # noqa: E402
+from rviz_util import (BACKGROUND, SCREEN, stop_process_tree, need, free_port,  # noqa: E402
                        render_area, ros_env, screenshot, spawn, xvfb)  # noqa: F401
 
 pytestmark = pytest.mark.integration
@@ -51,7 +51,7 @@ def run_sim_and_grab(spawn, display, tmp_path, name, extra_args=()):
             time.sleep(0.25)
         img = screenshot(display, tmp_path / ("%s.png" % name))
     finally:
-        kill_group(launch)
+        stop_process_tree(launch)
         log.close()
     return img
 

@@ -45,7 +45,7 @@ import cv2  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from rviz_util import (BACKGROUND, SCREEN, colour_mask, free_port,  # noqa: E402
-                       kill_group, need, render_area, ros_env, screenshot,
+                       stop_process_tree, need, render_area, ros_env, screenshot,
                        spawn, wait_alive, wait_param, xvfb)  # noqa: F401
 
 pytestmark = pytest.mark.integration
@@ -115,8 +115,8 @@ def run_step_and_grab(spawn, display, tmp_path, step):
             shot = tmp_path / ("rviz_%s.png" % step)
             img = screenshot(display, shot)
         finally:
-            kill_group(rviz)
-            kill_group(launch)
+            stop_process_tree(rviz)
+            stop_process_tree(launch)
     keep = os.environ.get("RVIZ_SHOTS_DIR")
     if keep:
         os.makedirs(keep, exist_ok=True)

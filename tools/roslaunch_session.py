@@ -27,18 +27,18 @@ def stop_process_tree(proc, grace=20.0):
 
     roslaunch starts each node in a session of its own, so a node that hangs on
     shutdown would survive a plain group kill: its PID is collected first and killed.
+    A leader that has already ended still gets its group killed (what it left behind).
+    Only these PIDs: never anything found by name.
     """
-    if proc is None or proc.poll() is not None:
+    if proc is None:
         return
-    try:
-        below = psutil.Process(proc.pid).children(recursive=True)
-    except psutil.NoSuchProcess:
-        below = []
-    try:
-        os.killpg(proc.pid, signal.SIGINT)
-        proc.wait(timeout=grace)
-    except (ProcessLookupError, subprocess.TimeoutExpired):
-        pass
+    below = process_tree(proc.pid)[1:] if proc.poll() is None else []
+    if proc.poll() is None:
+        try:
+            os.killpg(proc.pid, signal.SIGINT)
+            proc.wait(timeout=grace)
+        except (ProcessLookupError, subprocess.TimeoutExpired):
+            pass
     try:
         os.killpg(proc.pid, signal.SIGKILL)
     except ProcessLookupError:
@@ -52,6 +52,15 @@ def stop_process_tree(proc, grace=20.0):
         proc.wait(timeout=5)
     except subprocess.TimeoutExpired:
         pass
+
+
+def process_tree(root):
+    """psutil.Process of root (first) and of every process below it; [] if root is gone."""
+    try:
+        top = psutil.Process(root)
+        return [top] + top.children(recursive=True)
+    except psutil.NoSuchProcess:
+        return []
 
 
 class RoslaunchSession:

@@ -38,6 +38,7 @@ WS = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abs
 sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
 import course_project as cp  # noqa: E402
+import roslaunch_session as rs  # noqa: E402
 from bench_slam_sim import TourRecorder  # noqa: E402
 
 
@@ -62,22 +63,8 @@ class CpuHog:
 
 
 def process_tree(root):
-    """Pids of root and all its descendants (from /proc)."""
-    children = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as f:
-                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue    # ended while we looked
-            children.setdefault(ppid, []).append(int(entry))
-    tree, todo = [], [root]
-    while todo:
-        pid = todo.pop()
-        tree.append(pid)
-        todo.extend(children.get(pid, []))
-    return tree
+    """Pids of root and all its descendants."""
+    return [p.pid for p in rs.process_tree(root)]
 
 
 def tree_threads(root):
