@@ -7,8 +7,8 @@ import pytest
 
 from my_summit_path_planning.costmap import Costmap2D
 from my_summit_path_planning.move_base_core import (CLEARING, CONTROLLING, PLANNING, RECOVERY_FAILED, GoalError,
-                                                    MoveBaseCore, RateWatch, blocked_by_map, check_goal_cell,
-                                                    check_goal_pose)
+                                                    MoveBaseCore, RateWatch, accept_goal, blocked_by_map,
+                                                    check_goal_cell, check_goal_pose)
 from my_summit_path_planning.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from my_summit_path_planning.params import MoveBaseConfig
 from my_summit_path_planning.recovery import RecoveryStep
@@ -352,6 +352,29 @@ def test_goal_blocked_only_by_sensed_marks_is_not_blocked_by_the_map():
     assert blocked_by_map([grid], (0.1, 0.1), 0.31, False)
     assert not blocked_by_map([grid], (0.1, 0.1), 0.05, True)
     assert blocked_by_map([grid], (5.0, 1.0), 0.31, True)   # off the map
+
+
+def test_accept_goal_as_the_node_accepts_one():
+    """accept_goal, the node's (and the closed-loop bench's) check of a new goal: a free
+    goal as given; a goal on a sensed mark the map leaves free as given, with a note; a
+    blocked goal with a free cell within tolerance moved there; one the map blocks, an
+    error."""
+    static = Costmap2D(40, 40, 0.05, 0.0, 0.0)
+    static.data[:, 30:] = LETHAL_OBSTACLE                   # a wall of the map from x = 1.5 m
+    master = Costmap2D(40, 40, 0.05, 0.0, 0.0)
+    master.data[:] = static.data
+    master.data[8:13, 8:13] = LETHAL_OBSTACLE               # a sensed mark round (0.5, 0.5)
+    assert accept_goal(master, [static], (1.0, 1.0, 0.2), False, 0.0, 0.31) == ((1.0, 1.0, 0.2), "")
+    goal, note = accept_goal(master, [static], (0.525, 0.525, 0.2), False, 0.0, 0.31)
+    assert goal == (0.525, 0.525, 0.2) and "lethal cell" in note and "the map leaves it free" in note
+    (x, y, yaw), note = accept_goal(master, [static], (0.525, 0.525, 0.2), False, 0.3, 0.31)
+    assert yaw == 0.2 and 0.1 < math.hypot(x - 0.525, y - 0.525) <= 0.3 and "nearest free cell" in note
+    with pytest.raises(GoalError, match="lethal cell"):
+        accept_goal(master, [static], (1.6, 1.0, 0.0), False, 0.0, 0.31)
+    with pytest.raises(GoalError, match="lethal cell"):               # no static layer: the costmap decides
+        accept_goal(master, [], (0.525, 0.525, 0.0), False, 0.0, 0.31)
+    with pytest.raises(GoalError, match="off the map"):
+        accept_goal(master, [static], (5.0, 1.0, 0.0), False, 0.0, 0.31)
 
 
 @pytest.mark.parametrize("local_type", ["dwa_local_planner/DWAPlannerROS", "base_local_planner/TrajectoryPlannerROS"])

@@ -19,7 +19,8 @@ is in the map whether or not a new plan comes.
 MoveBaseCore is pure: time comes in as seconds, poses as (x, y, yaw), plugins (nav_core
 shapes) are passed in, and each control cycle returns what to publish and log. It is not
 thread-safe: the node calls it under one lock from its control loop and planner thread.
-Also here: the checks of a goal before it is accepted (GoalError with the abort text).
+Also here: the checks of a goal before it is accepted (accept_goal; GoalError with the
+abort text).
 """
 import collections
 import math
@@ -46,6 +47,7 @@ TRAIL_STEP = 0.02            # [m] between the trail points kept for back_up
 TRAIL_POINTS = 250           # the last 5 m of them
 QUATERNION_TOLERANCE = 1e-2  # |norm - 1| accepted in a goal's orientation [-]
 UPRIGHT_TOLERANCE = 1e-3     # 1 - cos(tilt) accepted: a goal may only rotate about z [-]
+INVALID_GOAL = "Aborting on goal because it was sent with an invalid goal: "   # + GoalError's text
 WARN, INFO = "warn", "info"
 FRAME_MOVED = 1e-9           # [m, rad] a global -> local transform change below this is none
 
@@ -141,6 +143,27 @@ def blocked_by_map(static_grids, goal, inscribed_radius, allow_unknown):
         if np.any(np.hypot(cx - goal[0], cy - goal[1]) <= inscribed_radius):
             return True
     return False
+
+
+def accept_goal(costmap, static_grids, goal, allow_unknown, tolerance, inscribed_radius, frame="map"):
+    """The goal (x, y, yaw) move_base drives to, checked on the global costmap (Costmap2D)
+    when it arrives: as given when its cell is free; moved to the nearest free cell within
+    tolerance [m] (the global planner's default_tolerance); as given when only what the
+    sensors marked blocks it (the static layers' grids, static_grids, leave it free:
+    blocked_by_map within inscribed_radius [m]). GoalError (the abort text after
+    INVALID_GOAL) when it is off the costmap or the map blocks it. Returns (goal, note):
+    note, what to log about the goal ('' when nothing)."""
+    try:
+        checked, moved = check_goal_cell(costmap, goal, allow_unknown, tolerance, frame)
+    except GoalError as e:
+        if not static_grids or blocked_by_map(static_grids, goal, inscribed_radius, allow_unknown):
+            raise
+        return tuple(goal), (f"{e}; the map leaves it free, so it is planned to as given "
+                             f"(obstacles the sensors marked may move or be cleared)")
+    if moved:
+        return checked, (f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is blocked; driving to the nearest free cell "
+                         f"({checked[0]:.2f}, {checked[1]:.2f})")
+    return checked, ""
 
 
 # -- the state machine ---------------------------------------------------------------------
