@@ -364,9 +364,9 @@ def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
     pair["start"] to pair["goal"] in world (a summit_xl_sim World) with the parameters p
     (params.MoveBaseParams). The node's threads on simulated time, every control period
     (1 / controller_frequency) in this order: the costmaps due for an update take the
-    current scan; the planner, when its last attempt's period has passed (the node's
-    planner thread sleeps next_plan_delay after each attempt) and the core asks for a plan
-    (plan_request), plans on the global costmap from the robot's pose (planning takes no
+    current scan; the planner, when the core asks for a plan (plan_request) and its wait
+    after the last attempt (next_plan_delay) has passed or the core cuts it short
+    (planner_woken), plans on the global costmap from the robot's pose (planning takes no
     simulated time); then the core's cycle, whose command the simulator runs for the
     period. The goal is first checked as the node accepts it (move_base_core.accept_goal).
     limit: [s] of simulated time before the run is given up (default TIME_LIMIT_FACTOR x
@@ -425,7 +425,7 @@ def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
             break
         if cycle:
             update_costmaps(t)
-        request = core.plan_request() if t >= planner_free - TIME_EPS else None
+        request = core.plan_request() if t >= planner_free - TIME_EPS or core.planner_woken() else None
         if request is not None:
             r = planner.make_plan(gcm.layered.master, st.pose[:2], request[1][:2])
             logs = core.on_plan(request[0], r.path if r.ok else None, r.reason, t)

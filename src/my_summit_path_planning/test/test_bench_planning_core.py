@@ -152,6 +152,9 @@ def test_closed_loop_unreachable_goal_ends_with_move_base_cores_abort_after_the_
     patience = p.move_base.planner_patience
     assert 5 * patience < run["time_s"] < 5 * (patience + 1.0) + 2 * 10.0
     assert run["plan_m"] is None and run["collisions"] == 0
+    # while PLANNING the planner is woken every control cycle, not held to planner_frequency
+    planning_cycles = run["mode_s"]["PLANNING"] * p.move_base.controller_frequency
+    assert run["plans"] >= 0.9 * planning_cycles
     assert math.hypot(run["start"][0] - 1.5, run["start"][1] - 2.0) < 1e-9 and run["xy_error_m"] > 3.9
     assert set(run["mode_s"]) == {"PLANNING", "CLEARING"}
 

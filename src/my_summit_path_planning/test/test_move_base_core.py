@@ -175,6 +175,31 @@ def test_planner_frequency_keeps_replanning_while_controlling():
     assert Run().core.next_plan_delay(False, 0.0) > 0.0 and Run().core.next_plan_delay(True, 0.0) == 0.0
 
 
+def test_planning_wakes_the_planner_thread_from_its_planner_frequency_wait():
+    """Regression (closed-loop bench on the core, willow-full-0.05 pair 9, NavFn + DWA):
+    beside a wall DWA found no command, the core went back to PLANNING, and the planner
+    thread slept out the rest of its 1 s planner_frequency wait before planning again, so
+    the robot stood still ~1 s between single control cycles: the escape got one cycle a
+    second, controller_patience ran out, the recoveries ran and the goal was aborted
+    (71 s of 79 s in PLANNING). move_base's control loop wakes its planner thread every
+    cycle in PLANNING: the wait holds only while CONTROLLING."""
+    r = Run(planner_frequency=1.0)
+    r.goal()
+    assert r.core.planner_woken()                            # a new goal plans at once
+    r.plan()
+    r.cycle()
+    assert r.core.state == CONTROLLING and not r.core.planner_woken()   # replans at planner_frequency
+    assert r.core.next_plan_delay(True, 0.05) == pytest.approx(0.95)
+    r.local.ok, r.local.reason = False, "no valid trajectory"
+    r.cycle()
+    assert r.core.state == PLANNING and r.core.planner_woken() and r.core.plan_request() is not None
+    r.plan()
+    r.local.ok = True
+    assert r.cycle().cmd == (0.3, 0.0, 0.0) and not r.core.planner_woken()
+    r.core.stop()
+    assert not r.core.planner_woken()
+
+
 def test_planner_patience_then_recoveries_in_order_then_abort():
     r = Run(planner_patience=1.0)
     r.goal()

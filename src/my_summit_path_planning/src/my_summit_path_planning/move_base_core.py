@@ -195,8 +195,9 @@ class MoveBaseCore:
     order (nav_core.RecoveryBehavior).
 
     Use: start_goal(goal, now) for each new goal (it preempts the active one); the
-    planner thread asks plan_request() and reports on_plan(); the control loop calls
-    cycle() every period and publishes its CycleOutput; stop() when the goal ends.
+    planner thread asks plan_request(), reports on_plan() and waits next_plan_delay()
+    unless planner_woken(); the control loop calls cycle() every period and publishes its
+    CycleOutput; stop() when the goal ends.
     """
 
     def __init__(self, config, make_local_planner, recoveries):
@@ -278,10 +279,18 @@ class MoveBaseCore:
 
     def next_plan_delay(self, planned, took):
         """[s] the planner thread waits before its next attempt, after one that took took
-        [s] and found a plan (planned) or not."""
+        [s] and found a plan (planned) or not; a wait planner_woken() cuts short."""
         if self.config.planner_frequency > 0:
             return max(0.0, 1.0 / self.config.planner_frequency - took)
         return 0.0 if planned else PLAN_FAIL_PAUSE
+
+    def planner_woken(self):
+        """True while the goal waits for a plan (PLANNING): the planner thread plans now,
+        whatever is left of its wait after the last attempt. move_base's control loop wakes
+        its planner thread every cycle in PLANNING, so a robot sent back to planning
+        (no valid command, a recovery done) gets a new plan within a cycle rather than
+        after up to 1 / planner_frequency; while CONTROLLING it keeps planner_frequency."""
+        return self.goal is not None and self.run_planner and self.state == PLANNING
 
     def _to_clearing(self, trigger, failure):
         self.state, self.trigger, self.failure = CLEARING, trigger, failure
