@@ -13,8 +13,9 @@
    built from the config) drives summit_xl_sim.sim.Simulation on simulated time, with
    ground-truth pose: the global costmap (static + obstacle + inflation) and the rolling
    local costmap updated from the laser at their update_frequency, the global planner
-   planning when the core asks (at most at planner_frequency, as the node's planner
-   thread), the local planner every control period; between seeded random free pose
+   planning when the core asks (as the node's planner thread: at planner_frequency while
+   driving, at once while the goal waits for a plan), the local planner every control
+   period; between seeded random free pose
    pairs (the same pairs for every planner). Reports the share reached within tolerance
    (a goal the core aborts fails with its text), collisions, and the median of
    time-to-goal / (L / max_vel_x) with L the exact 8-connected grid geodesic
