@@ -51,6 +51,7 @@ beside each time. Sections:
     make bench BENCH_ARGS="--only laser --runs 3"
     make bench BENCH_ARGS="--only slam_carmen --carmen-logs intel"
     make bench BENCH_ARGS="--only slam_bag --carmen-logs intel --bag-rate 1"
+    make bench BENCH_ARGS="--only explore --explore-worlds builtin"
     make bench-page                 re-render the page from docs/bench.json
 """
 import argparse
@@ -325,13 +326,18 @@ def _json_tail(out):
     return json.loads(out[start + 1:] if start >= 0 else out)
 
 
-def bench_explore():
-    """bench_explore.py on the built-in world (5 seeded starts) and willow-full (1), at
-    real time: slam_gmapping, move_base on the growing map and explore together need
-    about 1.5 cores, so faster than real time starves them on 2 cores."""
+EXPLORE_RUNS = {"builtin": 5, "willow": 1}   # seeded starts per world
+
+
+def bench_explore(worlds=None):
+    """bench_explore.py on the built-in world (5 seeded starts) and willow-full (1), or
+    only `worlds`, at real time: slam_gmapping, move_base on the growing map and explore
+    together need about 1.5 cores, so faster than real time starves them on 2 cores."""
     script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_explore.py")
     res = {}
-    for world, runs in (("builtin", 5), ("willow", 1)):
+    for world, runs in EXPLORE_RUNS.items():
+        if worlds and world not in worlds:
+            continue
         path = os.path.join(OUT, f"bench_explore_{world}.json")
         subprocess.run([sys.executable, script, "--world", world, "--runs", str(runs), "--speed", "1",
                         "--json", path], check=True)
@@ -386,6 +392,8 @@ def main():
                     help="slam_carmen, slam_bag: only these CARMEN logs (intel, aces; default both)")
     ap.add_argument("--bag-rate", type=float, default=BAG_RATE,
                     help=f"slam_bag: rosbag play rate (default {BAG_RATE:g})")
+    ap.add_argument("--explore-worlds", nargs="+", choices=sorted(EXPLORE_RUNS),
+                    help="explore: only these worlds (default all; willow takes about 40 min)")
     ap.add_argument("--profile", metavar="PREFIX", help=argparse.SUPPRESS)  # sim_rtf's profiled child
     ap.add_argument("--render", action="store_true",
                     help="only re-render docs/benchmarks.md and the README's table from docs/bench.json")
@@ -412,7 +420,7 @@ def main():
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "planning": lambda: bench_planning(args.runs),
         "stack_cpu": lambda: bench_stack_cpu(max(1, min(args.runs, 3))),
-        "explore": bench_explore,
+        "explore": lambda: bench_explore(args.explore_worlds),
         "patrol": bench_patrol,
         "multi_robot": lambda: bench_multi_robot(min(args.runs, 3)),
         "e2e": bench_e2e,

@@ -30,11 +30,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("seeds", nargs="*", type=int, default=list(range(1, 11)))
     ap.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
-    ap.add_argument("--cpu-hog", action="store_true",
-                    help="with a process spinning on one core beside it (the rostest's default)")
+    ap.add_argument("--load", choices=("none", "one_core", "cpu_hog"), default="none",
+                    help="one_core: the run confined to one CPU (the rostest's default); cpu_hog: a "
+                         "process spinning beside it; none: neither")
     args = ap.parse_args()
     out_dir = os.path.join(WS, "output", ("e2e_seeds" if args.speed == 1.0 else f"e2e_seeds_{args.speed:g}x")
-                           + ("_cpu_hog" if args.cpu_hog else ""))
+                           + ("" if args.load == "none" else "_" + args.load))
     passed = 0
     for seed in args.seeds:
         home = os.path.join(out_dir, f"seed_{seed}")
@@ -43,7 +44,8 @@ def main():
         t0 = time.monotonic()
         rc, out = run_bounded(["rostest", f"--pkgdir={os.path.dirname(TEST)}", "--package=course_project", TEST,
                                f"seed:={seed}", f"speed:={args.speed}",
-                               f"cpu_hog:={'true' if args.cpu_hog else 'false'}"], env, TIMEOUT)
+                               f"one_core:={str(args.load == 'one_core').lower()}",
+                               f"cpu_hog:={str(args.load == 'cpu_hog').lower()}"], env, TIMEOUT)
         with open(os.path.join(home, "rostest.out"), "w") as f:
             f.write(out)
         ok = rc == 0 and "RESULT: SUCCESS" in out

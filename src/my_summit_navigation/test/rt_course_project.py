@@ -10,10 +10,16 @@ three spots and record each with /save_spot, then 'end'; drive back to the hall;
 stands within ~xy_tolerance / ~yaw_tolerance of each world spot after its
 /get_coordinates call, the spots file holds the three labels, zero collisions.
 
-With ~cpu_hog (the default in tests/course_project.test) a process spins on one core for
-the whole run, as a student's Gazebo or browser would beside the stack; it is started
-and stopped here, and must still be running at the end and have used at least
-~cpu_hog_min_share of one core (on an idle machine it takes about all of one).
+Load, as a student's Gazebo or browser beside the stack would put on a 2-core laptop
+(one core kept busy by another process), in one of two forms:
+- ~one_core (the default in tests/course_project.test): the whole rostest (simulator,
+  nodes, roslaunch, this node) is confined to one CPU, so the stack can never use more
+  than one core; every process of the run must still be confined at the end.
+- ~cpu_hog: a process spins for the whole run beside an unconfined stack; it must still
+  be running at the end and have used at least ~cpu_hog_min_share of one core.
+Confinement is the stricter of the two (with a hog, the scheduler still gives a stack of
+several busy processes more than one core), and it leaves the other core to the rest of
+`make test` instead of burning it.
 """
 import contextlib
 import math
@@ -55,11 +61,82 @@ class CpuHog:
         self.proc.wait()
 
 
+def process_tree(root):
+    """Pids of root and all its descendants (from /proc)."""
+    children = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue    # ended while we looked
+            children.setdefault(ppid, []).append(int(entry))
+    tree, todo = [], [root]
+    while todo:
+        pid = todo.pop()
+        tree.append(pid)
+        todo.extend(children.get(pid, []))
+    return tree
+
+
+def tree_threads(root):
+    """(pid, tid) of every thread of root's process tree."""
+    out = []
+    for pid in process_tree(root):
+        try:
+            out.extend((pid, int(tid)) for tid in os.listdir(f"/proc/{pid}/task"))
+        except OSError:
+            pass
+    return out
+
+
+class OneCore:
+    """Confines the process tree under `root` (the rostest process: simulator, roslaunch,
+    nodes, this test node) to one CPU. Affinity is per thread and inherited by new
+    threads and processes, so every thread there now is pinned; unconfined() lists the
+    threads of the tree that are not (processes started since inherit it)."""
+
+    def __init__(self, root):
+        self.root = root
+        self.cpu = max(os.sched_getaffinity(0))
+
+    def __enter__(self):
+        for _ in range(3):      # a thread started while we pinned is caught next round
+            for _pid, tid in self.unconfined():
+                try:
+                    os.sched_setaffinity(tid, {self.cpu})
+                except (ProcessLookupError, PermissionError):
+                    pass
+        return self
+
+    def unconfined(self):
+        out = []
+        for pid, tid in tree_threads(self.root):
+            try:
+                if os.sched_getaffinity(tid) != {self.cpu}:
+                    out.append((pid, tid))
+            except ProcessLookupError:
+                pass
+        return out
+
+    def __exit__(self, *exc):
+        pass
+
+
 class CourseProjectEndToEnd(unittest.TestCase):
     def test_course_project(self):
         rospy.init_node("course_project_test")
-        with (CpuHog() if rospy.get_param("~cpu_hog", False) else contextlib.nullcontext()) as hog:
+        one_core = rospy.get_param("~one_core", False)
+        with (OneCore(os.getppid()) if one_core else contextlib.nullcontext()) as core, \
+                (CpuHog() if rospy.get_param("~cpu_hog", False) else contextlib.nullcontext()) as hog:
+            if core is not None:
+                print(f"ONE_CORE the run is confined to CPU {core.cpu}: "
+                      f"{len(tree_threads(core.root))} threads now", flush=True)
             self.run_course_project()
+            if core is not None:
+                left = core.unconfined()
+                self.assertEqual(left, [], "threads of the run not confined to one CPU (pid, tid)")
             if hog is not None:
                 self.assertIsNone(hog.proc.poll(), "the CPU hog ended before the run did")
                 share = hog.share()

@@ -16,7 +16,10 @@ class Latest:
         self.stamps = []  # header stamps [s] of every message, for rates in simulated time
         self.lock = threading.Lock()
         self.callback = callback
-        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=50)
+        # No queue limit: rospy drops all but the last queue_size messages of what piled up
+        # in the socket while this node was starved, and the rates and counts here must
+        # be the publisher's, not this node's share of the CPU.
+        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=None)
 
     def _cb(self, msg):
         with self.lock:
