@@ -14,8 +14,8 @@
    ground-truth pose: the global costmap (static + obstacle + inflation) and the rolling
    local costmap updated from the laser at their update_frequency, the global planner
    planning when the core asks (as the node's planner thread: at planner_frequency while
-   driving, at once while the goal waits for a plan), the local planner every control
-   period; between seeded random free pose
+   driving, once per control cycle while the goal waits for a plan), the local planner
+   every control period; between seeded random free pose
    pairs (the same pairs for every planner). Reports the share reached within tolerance
    (a goal the core aborts fails with its text), collisions, and the median of
    time-to-goal / (L / max_vel_x) with L the exact 8-connected grid geodesic
@@ -365,11 +365,11 @@ def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
     pair["start"] to pair["goal"] in world (a summit_xl_sim World) with the parameters p
     (params.MoveBaseParams). The node's threads on simulated time, every control period
     (1 / controller_frequency) in this order: the costmaps due for an update take the
-    current scan; the planner, when the core asks for a plan (plan_request) and its wait
-    after the last attempt (next_plan_delay) has passed or the core cuts it short
-    (planner_woken), plans on the global costmap from the robot's pose (planning takes no
-    simulated time); then the core's cycle, whose command the simulator runs for the
-    period. The goal is first checked as the node accepts it (move_base_core.accept_goal).
+    current scan; the planner, when the core lets the planner thread plan (planner_wait:
+    once per control cycle while PLANNING, 1 / planner_frequency after the last attempt
+    began while CONTROLLING), plans on the global costmap from the robot's pose (planning
+    takes no simulated time); then the core's cycle, whose command the simulator runs for
+    the period. The goal is first checked as the node accepts it (move_base_core.accept_goal).
     limit: [s] of simulated time before the run is given up (default TIME_LIMIT_FACTOR x
     the first plan's length / max_vel_x, at least TIME_LIMIT_MIN); trace: print the
     state every trace [s] and the core's logs; log(text): where the costmaps' warnings
@@ -417,7 +417,7 @@ def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
             say(0.0, [(INFO, note, False)])
     except GoalError as e:
         goal, end = None, ("aborted", INVALID_GOAL + str(e))
-    cycle, t, planner_free = 0, 0.0, 0.0
+    cycle, t = 0, 0.0
     if goal is not None:
         core.start_goal(goal, 0.0)
     while end is None:
@@ -426,11 +426,10 @@ def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
             break
         if cycle:
             update_costmaps(t)
-        request = core.plan_request() if t >= planner_free - TIME_EPS or core.planner_woken() else None
+        request = core.begin_plan(t) if core.planner_wait(t) <= TIME_EPS else None
         if request is not None:
             r = planner.make_plan(gcm.layered.master, st.pose[:2], request[1][:2])
             logs = core.on_plan(request[0], r.path if r.ok else None, r.reason, t)
-            planner_free = t + core.next_plan_delay(r.ok, 0.0)
             plans += 1
             if r.ok and first_len is None:
                 first_len = r.length
