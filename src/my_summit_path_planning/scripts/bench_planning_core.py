@@ -8,15 +8,20 @@
    the exact 8-connected grid geodesic (for GlobalPlanner also with neutral_cost 255,
    every passable cell weighing the same: the path geometry alone).
 2. One DWA control cycle (the course's sample counts) on a local costmap: median time.
-3. Closed loop in summit_xl_sim.sim.Simulation with ground-truth pose: global costmap
-   (static + obstacle + inflation) + a global planner (replanning at planner_frequency)
-   + rolling local costmap from the laser + a local planner, between seeded random free
-   pose pairs (the same pairs for every planner); reports the share reached within
-   tolerance, collisions, and the median of time-to-goal / (L / max_vel_x) with L the
-   exact 8-connected grid geodesic (navfn.grid_geodesic_length, the same yardstick for
-   every planner; the benchmark's target) and with L that run's first plan's length.
-   The planners are built by their type strings through plugins.MoveBasePlugins, as
-   move_base builds them:
+3. Closed loop: move_base's executive (move_base_core.MoveBaseCore: PLANNING /
+   CONTROLLING / CLEARING, patience timers, oscillation watch, the recovery behaviours
+   built from the config) drives summit_xl_sim.sim.Simulation on simulated time, with
+   ground-truth pose: the global costmap (static + obstacle + inflation) and the rolling
+   local costmap updated from the laser at their update_frequency, the global planner
+   planning when the core asks (as the node's planner thread: at planner_frequency while
+   driving, once per control cycle while the goal waits for a plan), the local planner
+   every control period; between seeded random free pose
+   pairs (the same pairs for every planner). Reports the share reached within tolerance
+   (a goal the core aborts fails with its text), collisions, and the median of
+   time-to-goal / (L / max_vel_x) with L the exact 8-connected grid geodesic
+   (navfn.grid_geodesic_length, the same yardstick for every planner; the benchmark's
+   target) and with L that run's first plan's length. The plugins are built by their type
+   strings through plugins.MoveBasePlugins, as move_base builds them:
      --global-planner navfn     navfn/NavfnROS (config/)
                       astar     global_planner/GlobalPlanner, use_dijkstra false
                       dijkstra  global_planner/GlobalPlanner, use_dijkstra true
@@ -44,6 +49,7 @@ import math
 import os
 import resource
 import sys
+import threading
 import time
 
 import numpy as np
@@ -54,12 +60,14 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 from my_summit_path_planning import cost_values as cv  # noqa: E402
 from my_summit_path_planning.dwa import DWAPlanner  # noqa: E402
 from my_summit_path_planning.global_planner import GlobalPlanner, GlobalPlannerConfig  # noqa: E402
-from my_summit_path_planning.layers import scan_to_observation  # noqa: E402
+from my_summit_path_planning.layers import (ObstacleLayer, StaticLayer, scan_to_observation,  # noqa: E402
+                                            source_observation)
+from my_summit_path_planning.move_base_core import (INFO, INVALID_GOAL, GoalError, MoveBaseCore,  # noqa: E402
+                                                    accept_goal)
 from my_summit_path_planning.nav_core import namespace_of  # noqa: E402
 from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E402
 from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
 from my_summit_path_planning.plugins import MoveBasePlugins  # noqa: E402
-from my_summit_path_planning.recovery import clear_costmap_layers  # noqa: E402
 
 CONFIG = os.path.join(HERE, "..", "config")
 WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
@@ -71,6 +79,8 @@ MIN_PAIR_DIST = 2.0       # [m] closed-loop start-goal distance at least
 FAR_PAIR_DIST = 25.0      # [m] NavFn benchmark pairs at least this far apart
 TIME_LIMIT_FACTOR = 6.0   # a run fails after this x optimal time ...
 TIME_LIMIT_MIN = 40.0     # ... but never before this [s] of simulated time
+TIME_EPS = 1e-9           # [s] simulated times this close are the same instant
+IDENTITY = (0.0, 0.0, 0.0)  # global -> local frame: both the world's (perfect localization)
 # The closed loop's planners: option -> (move_base type string, its namespace's parameters
 # over the config's). GlobalPlanner also gets COURSE_GLOBAL_PARAMS from the config's NavfnROS.
 GLOBAL_KINDS = {
@@ -272,131 +282,245 @@ def draw_pairs(params, world_yaml, n_runs, seed=0):
     return pairs
 
 
+class SimCostmap:
+    """One of move_base's costmaps over the simulator, as the node's CostmapROS over ROS.
+
+    The LayeredCostmap the config describes (cfg: params.CostmapConfig; its static layers
+    given the world's grid), updated at its update_frequency [Hz of simulated time] with
+    the robot's latest scan added to every obstacle layer's sources, at the robot's true
+    pose (perfect localization: the global and the local frame are both the world's). It
+    is the handle the recoveries clear through (nav_core.PluginContext: layered, lock,
+    get_robot_pose()).
+    """
+
+    def __init__(self, name, cfg, sim, robot, grid=None, log=None):
+        self.name = name
+        self.layered = build_costmap(cfg, name, log)
+        self.lock = threading.RLock()
+        self.sim, self.robot = sim, robot
+        for layer in self.layered.layers:
+            if isinstance(layer, StaticLayer):
+                layer.set_map(grid.data, grid.resolution, grid.origin)
+        self.obstacle_layers = [l for l in self.layered.layers if isinstance(l, ObstacleLayer)]
+        # the node updates at update_frequency, or (at 0) until the first update succeeded
+        self.period = 1.0 / cfg.update_frequency if cfg.update_frequency > 0 else None
+        self.next_update = 0.0   # [s] of simulated time; None: no more updates
+
+    def get_robot_pose(self):
+        return self.robot.pose
+
+    def due(self, now):
+        return self.next_update is not None and now >= self.next_update - TIME_EPS
+
+    def update(self, now, ranges):
+        """Add the scan ranges (the robot's laser, now) and update the master at the robot's pose."""
+        las = self.robot.laser
+        laser_pose = self.sim.laser_pose(self.robot)
+        for layer in self.obstacle_layers:
+            for src in layer.sources.values():
+                layer.add_observation(source_observation(src, ranges, las.angle_min, las.angle_increment,
+                                                         las.range_min, las.range_max, laser_pose))
+        self.layered.update_map(*self.robot.pose)
+        self.next_update = now + self.period if self.period is not None else None
+
+
+class MeteredLocalPlanner:
+    """A local planner (nav_core.LocalPlanner) whose compute_velocity_commands is timed
+    (ms: wall time [ms] of each call) and keeps its last result (last); everything else is
+    the planner's own."""
+
+    def __init__(self, planner):
+        self.planner = planner
+        self.ms = []
+        self.last = None
+
+    def compute_velocity_commands(self, pose, velocity, costmap):
+        t0 = time.perf_counter()
+        self.last = self.planner.compute_velocity_commands(pose, velocity, costmap)
+        self.ms.append(1000.0 * (time.perf_counter() - t0))
+        return self.last
+
+    def __getattr__(self, name):
+        return getattr(self.planner, name)
+
+
+class CountedRecovery:
+    """A recovery behaviour (nav_core.RecoveryBehavior) whose starts are listed by name in
+    started; its steps are the behaviour's own."""
+
+    def __init__(self, name, behaviour, started):
+        self.name, self.behaviour, self.started = name, behaviour, started
+
+    def start(self, pose, trail=()):
+        self.started.append(self.name)
+        self.behaviour.start(pose, trail)
+
+    def step(self, pose, velocity, costmap):
+        return self.behaviour.step(pose, velocity, costmap)
+
+
+def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
+    """One goal of the closed loop: move_base (MoveBaseCore, its plugins by type string
+    through plugins.MoveBasePlugins, its two SimCostmaps) drives the simulated robot from
+    pair["start"] to pair["goal"] in world (a summit_xl_sim World) with the parameters p
+    (params.MoveBaseParams). The node's threads on simulated time, every control period
+    (1 / controller_frequency) in this order: the costmaps due for an update take the
+    current scan; the planner, when the core lets the planner thread plan (planner_wait:
+    once per control cycle while PLANNING, 1 / planner_frequency after the last attempt
+    began while CONTROLLING), plans on the global costmap from the robot's pose (planning
+    takes no simulated time); then the core's cycle, whose command the simulator runs for
+    the period. The goal is first checked as the node accepts it (move_base_core.accept_goal).
+    limit: [s] of simulated time before the run is given up (default TIME_LIMIT_FACTOR x
+    the first plan's length / max_vel_x, at least TIME_LIMIT_MIN); trace: print the
+    state every trace [s] and the core's logs; log(text): where the costmaps' warnings
+    go (default: the package's logger). Returns the run's figures (a dict; plans: the
+    planning attempts)."""
+    from summit_xl_sim.sim import Simulation
+    (sx, sy, syaw), (gx, gy, gyaw) = pair["start"], pair["goal"]
+    sim = Simulation(world, seed=pair["sim_seed"])
+    st = sim.add_robot("robot", sx, sy, syaw)
+    gcm = SimCostmap("global_costmap", p.global_costmap, sim, st, world.grid, log)
+    lcm = SimCostmap("local_costmap", p.local_costmap, sim, st, log=log)
+    plugins = MoveBasePlugins(p, gcm, lcm)
+    planner = plugins.global_planner
+    started = []   # the recovery behaviours' names, as each starts
+    core = MoveBaseCore(p.move_base, lambda: MeteredLocalPlanner(plugins.make_local_planner()),
+                        [(name, CountedRecovery(name, beh, started)) for name, beh in plugins.recoveries])
+    period = 1.0 / p.move_base.controller_frequency
+    sub = max(1, int(round(period / SIM_DT)))
+    max_vel_x = plugins.local_planner.config.max_vel_x
+    geodesic_optimal = pair["geodesic_m"] / max_vel_x
+    given_limit = limit
+    limit = limit if limit is not None else max(TIME_LIMIT_MIN, TIME_LIMIT_FACTOR * geodesic_optimal)
+    trace_every = max(1, int(round(trace / period))) if trace else 0
+
+    def say(t, logs):
+        for _, text, _ in logs:
+            print(f"    t={t:5.1f} move_base: {text}", flush=True)
+
+    def update_costmaps(t):
+        ranges = None
+        for cm in (gcm, lcm):
+            if cm.due(t):
+                ranges = sim.scan("robot") if ranges is None else ranges
+                with cm.lock:
+                    cm.update(t, ranges)
+
+    update_costmaps(0.0)
+    end, first_len, modes, t_moving, fails, ms, plans = None, None, {}, None, 0, [], 0
+    allow_unknown, tolerance = plugins.goal_tolerance()
+    grids = [l.grid for l in gcm.layered.layers if isinstance(l, StaticLayer) and l.grid is not None]
+    try:
+        goal, note = accept_goal(gcm.layered.master, grids, (gx, gy, gyaw), allow_unknown, tolerance,
+                                 gcm.layered.footprint.inscribed_radius)
+        if note and trace:
+            say(0.0, [(INFO, note, False)])
+    except GoalError as e:
+        goal, end = None, ("aborted", INVALID_GOAL + str(e))
+    cycle, t = 0, 0.0
+    if goal is not None:
+        core.start_goal(goal, 0.0)
+    while end is None:
+        t = cycle * period
+        if t >= limit - TIME_EPS:
+            break
+        if cycle:
+            update_costmaps(t)
+        request = core.begin_plan(t) if core.planner_wait(t) <= TIME_EPS else None
+        if request is not None:
+            r = planner.make_plan(gcm.layered.master, st.pose[:2], request[1][:2])
+            logs = core.on_plan(request[0], r.path if r.ok else None, r.reason, t)
+            plans += 1
+            if r.ok and first_len is None:
+                first_len = r.length
+                if given_limit is None:
+                    limit = max(TIME_LIMIT_MIN, TIME_LIMIT_FACTOR * first_len / max_vel_x)
+            if trace:
+                say(t, logs)
+        pose, state = st.pose, core.state
+        lp = core.local_planner
+        n_calls = len(lp.ms)
+        out = core.cycle(t, pose, pose, st.vel, lcm.layered.master, IDENTITY)
+        ran = len(lp.ms) > n_calls
+        mode = lp.last.mode if ran else state
+        modes[mode] = modes.get(mode, 0.0) + sub * SIM_DT
+        fails += int(ran and not lp.last.ok)
+        if t_moving is None and st.vel[0] >= 0.5 * max_vel_x:
+            t_moving = t
+        if trace:
+            say(t, out.logs)
+            if cycle % trace_every == 0:
+                res = lp.last if ran else None
+                print(f"    t={t:5.1f} pose=({pose[0]:.2f}, {pose[1]:.2f}, {pose[2]:.2f}) {core.state} mode={mode} "
+                      + (f"ok={res.ok} cmd=({res.cmd[0]:.2f}, {res.cmd[2]:.2f}) valid={res.n_valid}/{res.n_samples} "
+                         f"{res.reason}" if res is not None else f"cmd={out.cmd}"), flush=True)
+        if out.end is not None:
+            end = out.end
+            break
+        sim.command("robot", *(out.cmd if out.cmd is not None else (0.0, 0.0, 0.0)))
+        for _ in range(sub):
+            sim.step(SIM_DT)
+        cycle += 1
+    core.stop()
+    if core.local_planner is not None:
+        ms = core.local_planner.ms
+    optimal = first_len / max_vel_x if first_len else geodesic_optimal
+    err = math.hypot(st.pose[0] - gx, st.pose[1] - gy)
+    yaw_err = abs((st.pose[2] - gyaw + math.pi) % (2 * math.pi) - math.pi)
+    cfg = plugins.local_planner.config
+    reached = end is not None and end[0] == "succeeded"
+    ok = reached and err <= cfg.xy_goal_tolerance + 0.05 and yaw_err <= cfg.yaw_goal_tolerance + 0.05
+    why = ("" if ok else "goal reported reached out of tolerance" if reached else
+           f"aborted: {end[1]}" if end is not None else f"timeout ({limit:.0f} s)")
+    return {"start": [sx, sy, syaw], "goal": [gx, gy, gyaw], "reached": bool(ok), "failure": why, "time_s": t,
+            "plan_m": first_len, "plans": plans, "geodesic_m": pair["geodesic_m"], "ratio": t / optimal,
+            "geodesic_ratio": t / geodesic_optimal, "collisions": st.collisions,
+            "xy_error_m": err, "yaw_error_rad": yaw_err, "no_command_cycles": fails, "recoveries": len(started),
+            "recovery_behaviors": started, "dwa_median_ms": float(np.median(ms)) if ms else None,
+            "mode_s": modes, "t_moving_s": t_moving}
+
+
 def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, trace=False, planner_kind="dwa",
                 global_kind="navfn", pairs=None, max_vel_x=None):
     """Closed loop of one (global_kind, planner_kind) combination over n_runs seeded pairs
-    (draw_pairs; pairs: already drawn ones). The planners are built by type string
-    through plugins.MoveBasePlugins, as move_base builds them: the global planner once,
-    a fresh local planner per goal. As move_base, a cycle in which the local planner finds
-    no command sends the robot back to planning (a new global plan, from the global
-    costmap with the current scan, before the next cycle's command); after
-    controller_patience without a command, the costmaps' obstacles are cleared. only: run
-    numbers (1-based) to simulate, the others skipped (to replay a failure); trace: print
-    the controller's state every trace [s] of simulated time."""
-    from summit_xl_sim.sim import Simulation
+    (draw_pairs; pairs: already drawn ones): each pair one goal of move_base over the
+    simulator (drive_goal), from a fresh start (robot, costmaps, plugins, core). only:
+    run numbers (1-based) to simulate, the others skipped (to replay a failure); trace:
+    print the controller's state every trace [s] of simulated time and move_base's logs."""
     from summit_xl_sim.world import World
     p = combination_params(params, global_kind, planner_kind, max_vel_x)
     pairs = pairs if pairs is not None else draw_pairs(p, world_yaml, n_runs, seed)
-    period = 1.0 / p.move_base.controller_frequency
-    sub = max(1, int(round(period / SIM_DT)))
-    replan_every = int(round(1.0 / (p.move_base.planner_frequency * period))) \
-        if p.move_base.planner_frequency > 0 else 0
     plugins = MoveBasePlugins(p, footprint=build_costmap(p.local_costmap, "local_costmap").footprint)
-    planner = plugins.global_planner
     if verbose:
         for note in plugins.notes:    # what move_base would log once about the planners' parameters
             print(f"  {plugins.global_type} + {plugins.local_type}: {note}", flush=True)
+    world = World.from_yaml(world_yaml)
+    notes = []   # the costmaps' warnings, the same every run: said once
+
+    def note(text):
+        if text not in notes:
+            notes.append(text)
+            if verbose:
+                print(f"  {text}", flush=True)
+
     runs = []
     for k, pair in enumerate(pairs):
         if only and k + 1 not in only:
             continue
-        (sx, sy, syaw), (gx, gy, gyaw) = pair["start"], pair["goal"]
-        sim = Simulation(World.from_yaml(world_yaml), seed=pair["sim_seed"])
-        st = sim.add_robot("robot", sx, sy, syaw)
-        g = global_costmap(p, sim.world.grid)   # the static map's costmap: each goal starts alike
-        g_obs = g.layer("obstacle_layer")
-        cm = g.master
-        loc = build_costmap(p.local_costmap, "local_costmap")
-        dwa = plugins.make_local_planner()
-        cfg = dwa.config
-        geodesic_optimal = pair["geodesic_m"] / cfg.max_vel_x
-        first = planner.make_plan(cm, (sx, sy), (gx, gy))
-        optimal = first.length / cfg.max_vel_x if first.ok else geodesic_optimal
-        limit = max(TIME_LIMIT_MIN, TIME_LIMIT_FACTOR * optimal)
-        t, cycle, reached, fails, dwa_ms, stuck, recoveries = 0.0, 0, False, 0, [], 0, 0
-        replan_now = False  # the local planner failed: plan again next cycle (move_base's PLANNING)
-        modes = {}          # [s] of simulated time per local planner mode (where the time goes)
-        t_moving = None     # [s] first time the robot drives faster than half max_vel_x
-        if first.ok:
-            dwa.set_plan(first.path, gyaw)
-        else:
-            t = limit       # no plan on a connected pair: a failure of the global planner
-        las = st.laser
-        while t < limit:
-            pose = st.pose
-            ranges = sim.scan("robot")
-            obs_args = (ranges, las.angle_min, las.angle_increment, las.range_min, las.range_max,
-                        sim.laser_pose(st), True)
-            loc.layer("obstacle_layer").add_observation(scan_to_observation(*obs_args, 4.0, 4.5))
-            loc.update_map(*pose)
-            if (replan_every and cycle % replan_every == 0 and cycle > 0) or replan_now:
-                replan_now = False
-                g_obs.add_observation(scan_to_observation(*obs_args, 4.0, 4.5))
-                g.update_map(*pose)
-                r = planner.make_plan(cm, pose[:2], (gx, gy))
-                if r.ok and not dwa.xy_latched:
-                    dwa.set_plan(r.path, gyaw)
-            t0 = time.perf_counter()
-            res = dwa.compute_velocity_commands(pose, st.vel, loc.master)
-            dwa_ms.append(1000 * (time.perf_counter() - t0))
-            modes[res.mode] = modes.get(res.mode, 0.0) + sub * SIM_DT
-            if t_moving is None and st.vel[0] >= 0.5 * cfg.max_vel_x:
-                t_moving = t
-            if res.goal_reached:
-                reached = True
-                break
-            if not res.ok:
-                fails += 1
-                stuck += 1
-                if stuck * period >= p.move_base.controller_patience:
-                    # move_base would start its recoveries here: the aggressive reset of both
-                    # costmaps' obstacle layers (clear_costmap_recovery's affected_maps "both";
-                    # the rotations are left to the node), then a new plan.
-                    for costmap in (loc, g):
-                        clear_costmap_layers(costmap, pose[:2], 0.0, ("obstacle_layer",), force_clear_all=True)
-                    g.update_map(*pose)
-                    recoveries += 1
-                    stuck = 0
-                    r = planner.make_plan(cm, pose[:2], (gx, gy))
-                    if r.ok:
-                        dwa.set_plan(r.path, gyaw)
-                else:
-                    # move_base goes back to PLANNING: a new global plan from the current
-                    # global costmap before the controller runs again
-                    replan_now = True
-            else:
-                stuck = 0
-            if trace and cycle % max(1, int(round(trace / period))) == 0:
-                print(f"    t={t:5.1f} pose=({pose[0]:.2f}, {pose[1]:.2f}, {pose[2]:.2f}) mode={res.mode} "
-                      f"ok={res.ok} cmd=({res.cmd[0]:.2f}, {res.cmd[2]:.2f}) valid={res.n_valid}/{res.n_samples} "
-                      f"{res.reason}", flush=True)
-            sim.command("robot", *res.cmd)
-            for _ in range(sub):
-                sim.step(SIM_DT)
-            t += sub * SIM_DT
-            cycle += 1
-        err = math.hypot(st.pose[0] - gx, st.pose[1] - gy)
-        yaw_err = abs((st.pose[2] - gyaw + math.pi) % (2 * math.pi) - math.pi)
-        ok = reached and err <= cfg.xy_goal_tolerance + 0.05 and yaw_err <= cfg.yaw_goal_tolerance + 0.05
-        why = "" if ok else (f"no first plan: {first.reason}" if not first.ok else
-                             "goal reported reached out of tolerance" if reached else f"timeout ({limit:.0f} s)")
-        run = {"start": [sx, sy, syaw], "goal": [gx, gy, gyaw], "reached": bool(ok), "failure": why, "time_s": t,
-               "plan_m": first.length, "geodesic_m": pair["geodesic_m"], "ratio": t / optimal,
-               "geodesic_ratio": t / geodesic_optimal, "collisions": st.collisions,
-               "xy_error_m": err, "yaw_error_rad": yaw_err, "no_command_cycles": fails, "recoveries": recoveries,
-               "dwa_median_ms": float(np.median(dwa_ms)) if dwa_ms else None, "mode_s": modes,
-               "t_moving_s": t_moving}
+        run = drive_goal(p, world, pair, trace=trace, log=note)
         runs.append(run)
         if verbose:
-            print(f"  run {k + 1:3d}: reached={ok} t={t:5.1f}s ratio={run['ratio']:.2f} "
-                  f"(geodesic {run['geodesic_ratio']:.2f}) coll={st.collisions} err={err:.2f}m "
-                  f"plan={first.length:.1f}m geodesic={pair['geodesic_m']:.1f}m modes "
-                  f"{ {m: round(v, 1) for m, v in modes.items()} } moving at {t_moving} {why}", flush=True)
+            plan = "-" if run["plan_m"] is None else f"{run['plan_m']:.1f}"
+            print(f"  run {k + 1:3d}: reached={run['reached']} t={run['time_s']:5.1f}s ratio={run['ratio']:.2f} "
+                  f"(geodesic {run['geodesic_ratio']:.2f}) coll={run['collisions']} err={run['xy_error_m']:.2f}m "
+                  f"plan={plan}m geodesic={pair['geodesic_m']:.1f}m modes "
+                  f"{ {m: round(v, 1) for m, v in run['mode_s'].items()} } moving at {run['t_moving_s']} "
+                  f"recoveries {run['recovery_behaviors']} {run['failure']}", flush=True)
     reached = [r for r in runs if r["reached"]]
     # Medians over every run: a run that failed counts with the time it was given up at.
     return {"world": world_yaml, "global_planner": global_kind, "local_planner": planner_kind,
             "global_type": plugins.global_type, "local_type": plugins.local_type,
-            "max_vel_x": dwa.config.max_vel_x if runs else None, "runs": len(runs),
+            "max_vel_x": plugins.local_planner.config.max_vel_x, "runs": len(runs),
             "reached_share": len(reached) / max(1, len(runs)),
             "collisions": int(sum(r["collisions"] for r in runs)),
             "ratio_median": float(np.median([r["ratio"] for r in runs])) if runs else None,

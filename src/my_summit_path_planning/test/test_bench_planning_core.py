@@ -5,6 +5,7 @@ import importlib.util
 import math
 import os
 
+import numpy as np
 import pytest
 
 from my_summit_path_planning.dwa import DWAPlanner
@@ -94,3 +95,75 @@ def test_json_keys_are_the_ones_the_benchmark_page_reads():
     assert [w for w, _ in bench.WORLDS] == list(bench_report.CLOSED_WORLDS)
     assert list(bench.GLOBAL_PLANNERS) == list(bench_report.CLOSED_GLOBAL)
     assert list(bench.LOCAL_PLANNERS) == list(bench_report.CLOSED_LOCAL)
+
+
+# -- the closed loop: move_base's core over the simulator ------------------------------------
+RES = 0.05   # [m] cells of the hand-built world
+
+
+def _world(closed_room=False):
+    """A 7 m x 4 m hall with walls round it; closed_room: a 2 m x 2 m room walled on every
+    side (x 4.5..6.5, y 1..3), its inside free on the map but out of reach."""
+    from summit_nav_common.map_io import FREE, OCCUPIED, GridMap
+    from summit_xl_sim.world import World
+    data = np.full((int(4.0 / RES), int(7.0 / RES)), FREE, np.int8)
+    data[:2, :] = data[-2:, :] = OCCUPIED
+    data[:, :2] = data[:, -2:] = OCCUPIED
+    if closed_room:
+        x0, x1, y0, y1 = (int(v / RES) for v in (4.5, 6.5, 1.0, 3.0))
+        data[y0:y1, x0:x0 + 2] = data[y0:y1, x1 - 2:x1] = OCCUPIED
+        data[y0:y0 + 2, x0:x1] = data[y1 - 2:y1, x0:x1] = OCCUPIED
+    return World(GridMap(data, RES, (0.0, 0.0, 0.0)))
+
+
+def _pair(start, goal):
+    return {"start": start, "goal": goal, "geodesic_m": math.hypot(goal[0] - start[0], goal[1] - start[1]),
+            "sim_seed": 0}
+
+
+def test_closed_loop_drives_move_base_core_to_a_goal(params):
+    """A 3 m goal in an empty hall: the core plans (at planner_frequency while driving), the
+    local planner drives, the goal ends succeeded within tolerance, no recovery, no contact."""
+    p = bench.combination_params(params, "navfn", "dwa")
+    run = bench.drive_goal(p, _world(), _pair((1.0, 2.0, 0.0), (4.0, 2.2, 0.5)))
+    assert run["reached"] and run["failure"] == "", run
+    assert run["collisions"] == 0 and run["recoveries"] == 0 and run["recovery_behaviors"] == []
+    assert run["xy_error_m"] <= 0.2 + 0.05    # the config's xy_goal_tolerance
+    # 3 m at max_vel_x 1 m/s, with the start and the final turn: a few seconds
+    assert 3.0 < run["time_s"] < 6.0 and run["ratio"] < 2.0
+    # the planner thread's period: one plan at the goal's start, then one per 1 / planner_frequency
+    assert run["plans"] == math.floor(run["time_s"] * p.move_base.planner_frequency + 1e-9) + 1
+    assert set(run["mode_s"]) <= {"dwa", "stop", "rotate", "goal", "escape", "PLANNING"}
+    assert run["dwa_median_ms"] > 0 and run["t_moving_s"] is not None
+
+
+def test_closed_loop_unreachable_goal_ends_with_move_base_cores_abort_after_the_recoveries(params):
+    """A goal inside a walled room: no plan, so after planner_patience the core runs the
+    config's recovery behaviours (move_base's default sequence, the real behaviours, each
+    followed by planning again) and aborts with move_base's text; the robot only turns."""
+    p = bench.combination_params(params, "navfn", "dwa")
+    run = bench.drive_goal(p, _world(closed_room=True), _pair((1.5, 2.0, 0.0), (5.5, 2.0, 0.0)), limit=120.0)
+    assert not run["reached"]
+    assert run["failure"].startswith("aborted: Failed to find a valid plan. Even after executing recovery "
+                                     "behaviors."), run["failure"]
+    assert run["recovery_behaviors"] == ["conservative_reset", "rotate_recovery", "aggressive_reset",
+                                         "rotate_recovery"]
+    # five planning phases of planner_patience (the first and one after each behaviour), two turns
+    patience = p.move_base.planner_patience
+    assert 5 * patience < run["time_s"] < 5 * (patience + 1.0) + 2 * 10.0
+    assert run["plan_m"] is None and run["collisions"] == 0
+    # while PLANNING the planner is woken every control cycle, not held to planner_frequency
+    planning_cycles = run["mode_s"]["PLANNING"] * p.move_base.controller_frequency
+    assert run["plans"] >= 0.9 * planning_cycles
+    assert math.hypot(run["start"][0] - 1.5, run["start"][1] - 2.0) < 1e-9 and run["xy_error_m"] > 3.9
+    assert set(run["mode_s"]) == {"PLANNING", "CLEARING"}
+
+
+def test_closed_loop_goal_in_a_wall_is_refused_as_the_node_refuses_it(params):
+    """A goal on a wall of the map ends at once with the node's invalid-goal text
+    (move_base_core.accept_goal), nothing driven."""
+    p = bench.combination_params(params, "navfn", "dwa")
+    run = bench.drive_goal(p, _world(), _pair((1.0, 2.0, 0.0), (3.0, 0.02, 0.0)))
+    assert run["failure"].startswith("aborted: Aborting on goal because it was sent with an invalid goal: goal "
+                                     "(3.00, 0.02) is in an obstacle"), run["failure"]
+    assert run["time_s"] == 0.0 and run["plans"] == 0 and not run["reached"]

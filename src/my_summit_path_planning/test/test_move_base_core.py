@@ -1,5 +1,7 @@
 """MoveBaseCore, move_base's state machine, driven by a fake clock and fake plugins."""
 import math
+import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -7,8 +9,8 @@ import pytest
 
 from my_summit_path_planning.costmap import Costmap2D
 from my_summit_path_planning.move_base_core import (CLEARING, CONTROLLING, PLANNING, RECOVERY_FAILED, GoalError,
-                                                    MoveBaseCore, RateWatch, blocked_by_map, check_goal_cell,
-                                                    check_goal_pose)
+                                                    MoveBaseCore, RateWatch, accept_goal, blocked_by_map,
+                                                    check_goal_cell, check_goal_pose, wait_for_plan_request)
 from my_summit_path_planning.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from my_summit_path_planning.params import MoveBaseConfig
 from my_summit_path_planning.recovery import RecoveryStep
@@ -166,13 +168,137 @@ def test_a_fresh_local_planner_each_goal_and_stale_plans_dropped():
 def test_planner_frequency_keeps_replanning_while_controlling():
     r = Run(planner_frequency=2.0)
     r.goal()
+    assert r.core.planner_wait(r.now) == 0.0 and r.core.begin_plan(r.now) is not None
     r.plan()
     r.cycle()
     assert r.core.state == CONTROLLING and r.core.plan_request() is not None
-    assert r.core.next_plan_delay(True, 0.1) == pytest.approx(0.4)
+    assert r.core.planner_wait(r.now) == pytest.approx(0.5 - DT)    # 1 / planner_frequency after it began
+    assert r.core.planner_wait(r.now + 0.5) == 0.0
     r.plan(ok=False)                                         # a failed replan while driving: the plan is kept
     assert r.core.state == CONTROLLING and r.core.planning_retries == 0
-    assert Run().core.next_plan_delay(False, 0.0) > 0.0 and Run().core.next_plan_delay(True, 0.0) == 0.0
+    r = Run()                                                # planner_frequency 0: one plan per goal
+    r.goal()
+    r.plan()
+    r.cycle()
+    assert r.core.state == CONTROLLING and r.core.planner_wait(r.now + 100.0) == math.inf
+
+
+def test_planning_wakes_the_planner_thread_from_its_planner_frequency_wait():
+    """Regression (closed-loop bench on the core, willow-full-0.05 pair 9, NavFn + DWA):
+    beside a wall DWA found no command, the core went back to PLANNING, and the planner
+    thread slept out the rest of its 1 s planner_frequency wait before planning again, so
+    the robot stood still ~1 s between single control cycles: the escape got one cycle a
+    second, controller_patience ran out, the recoveries ran and the goal was aborted
+    (71 s of 79 s in PLANNING). move_base's control loop wakes its planner thread every
+    cycle in PLANNING: the planner_frequency wait holds only while CONTROLLING."""
+    r = Run(planner_frequency=1.0)
+    r.goal()
+    assert r.core.planner_wait(r.now) == 0.0                 # a new goal plans at once
+    r.core.begin_plan(r.now)
+    r.plan()
+    r.cycle()
+    assert r.core.state == CONTROLLING and r.core.planner_wait(r.now) == pytest.approx(1.0 - DT)
+    r.local.ok, r.local.reason = False, "no valid trajectory"
+    r.cycle()
+    assert r.core.state == PLANNING and r.core.planner_wait(r.now) == 0.0   # woken by that cycle
+    r.core.begin_plan(r.now)
+    r.plan()
+    r.local.ok = True
+    assert r.cycle().cmd == (0.3, 0.0, 0.0) and r.core.planner_wait(r.now) > 0.5
+    r.core.stop()
+    assert r.core.planner_wait(r.now + 10.0) == math.inf
+
+
+def count_attempts(r, seconds, poll=0.001, planned=False):
+    """The node's two threads on r's fake clock for seconds [s]: the control loop's cycle
+    every DT, and a planner thread that asks planner_wait every poll [s] (as often as a
+    spinning thread could) and, when let, makes an attempt (begin_plan) whose answer is
+    planned (a plan or a failure). Returns the attempts made."""
+    attempts, ticks_per_cycle = 0, round(DT / poll)
+    for tick in range(round(seconds / poll)):
+        now = r.now + (tick % ticks_per_cycle) * poll
+        if r.core.planner_wait(now) <= 0.0:
+            req = r.core.begin_plan(now)
+            r.core.on_plan(req[0], PLAN if planned else None, "" if planned else "blocked", now)
+            attempts += 1
+        if tick % ticks_per_cycle == ticks_per_cycle - 1:
+            r.cycle()
+    return attempts
+
+
+@pytest.mark.parametrize("planner_frequency", [0.0, 1.0, 50.0])
+def test_a_failing_planner_is_tried_once_per_control_cycle(planner_frequency):
+    """Regression (rostest multi_robot_crossing in CI): the planner thread's wait ended
+    whenever the goal waited for a plan, a state that holds while the planner keeps
+    failing, so a failing NavFn was retried back to back (559 attempts in planner_patience,
+    ~110 a second) and starved the node's other threads. As move_base's planThread, an
+    attempt uses up the control loop's wake: 5 s at 20 Hz is 100 cycles, so at most the
+    new goal's attempt and one per cycle, whatever planner_frequency says."""
+    r = Run(planner_frequency=planner_frequency, planner_patience=60.0)
+    r.goal()
+    attempts = count_attempts(r, 5.0)
+    assert r.core.state == PLANNING and r.core.planning_retries == attempts
+    assert 100 <= attempts <= 101
+
+
+def test_controlling_replans_at_planner_frequency_not_per_cycle():
+    r = Run(planner_frequency=2.0)
+    r.goal()
+    assert count_attempts(r, 5.0, planned=True) == 10       # 1 / 0.5 s, the first at once
+    assert r.core.state == CONTROLLING
+    r = Run()
+    r.goal()
+    assert count_attempts(r, 5.0, planned=True) == 1        # planner_frequency 0: the goal's one plan
+
+
+def test_the_planner_threads_wait_uses_one_wake_per_control_cycle():
+    """wait_for_plan_request as the node runs it: a real thread with a planner that always
+    fails, the control loop on a fake clock notifying plan_cv every cycle (then leaving the
+    planner thread time in which a spinning one would retry many times): one attempt per
+    wake, the new goal's and one per cycle."""
+    r = Run(planner_patience=60.0)
+    cv = threading.Condition(threading.RLock())
+    clock = {"now": r.now}
+    running = threading.Event()
+    running.set()
+    attempts = []
+
+    def planner_thread():
+        while True:
+            req = wait_for_plan_request(r.core, cv, lambda: clock["now"], running.is_set, 0.05)
+            if req is None:
+                return
+            with cv:
+                r.core.on_plan(req[0], None, "blocked", clock["now"])
+                attempts.append(clock["now"])
+                cv.notify_all()
+
+    with cv:
+        r.goal()
+    thread = threading.Thread(target=planner_thread, daemon=True)
+    thread.start()
+    cycles = 100
+    try:
+        for k in range(cycles):
+            with cv:
+                assert cv.wait_for(lambda: len(attempts) >= k + 1, timeout=5.0), "the planner thread never planned"
+                r.core.cycle(r.now, r.pose, r.pose, (0.0, 0.0, 0.0), None, (0.0, 0.0, 0.0))
+                if r.core.run_planner:
+                    cv.notify_all()
+            time.sleep(0.002)                                # wall time a spinning planner thread would use
+            with cv:
+                r.now += DT
+                clock["now"] = r.now
+        with cv:
+            assert cv.wait_for(lambda: len(attempts) >= cycles + 1, timeout=5.0)
+        time.sleep(0.02)
+    finally:
+        running.clear()
+        with cv:
+            cv.notify_all()
+        thread.join(5.0)
+    assert not thread.is_alive()
+    assert len(attempts) == cycles + 1 and r.core.state == PLANNING
 
 
 def test_planner_patience_then_recoveries_in_order_then_abort():
@@ -352,6 +478,29 @@ def test_goal_blocked_only_by_sensed_marks_is_not_blocked_by_the_map():
     assert blocked_by_map([grid], (0.1, 0.1), 0.31, False)
     assert not blocked_by_map([grid], (0.1, 0.1), 0.05, True)
     assert blocked_by_map([grid], (5.0, 1.0), 0.31, True)   # off the map
+
+
+def test_accept_goal_as_the_node_accepts_one():
+    """accept_goal, the node's (and the closed-loop bench's) check of a new goal: a free
+    goal as given; a goal on a sensed mark the map leaves free as given, with a note; a
+    blocked goal with a free cell within tolerance moved there; one the map blocks, an
+    error."""
+    static = Costmap2D(40, 40, 0.05, 0.0, 0.0)
+    static.data[:, 30:] = LETHAL_OBSTACLE                   # a wall of the map from x = 1.5 m
+    master = Costmap2D(40, 40, 0.05, 0.0, 0.0)
+    master.data[:] = static.data
+    master.data[8:13, 8:13] = LETHAL_OBSTACLE               # a sensed mark round (0.5, 0.5)
+    assert accept_goal(master, [static], (1.0, 1.0, 0.2), False, 0.0, 0.31) == ((1.0, 1.0, 0.2), "")
+    goal, note = accept_goal(master, [static], (0.525, 0.525, 0.2), False, 0.0, 0.31)
+    assert goal == (0.525, 0.525, 0.2) and "lethal cell" in note and "the map leaves it free" in note
+    (x, y, yaw), note = accept_goal(master, [static], (0.525, 0.525, 0.2), False, 0.3, 0.31)
+    assert yaw == 0.2 and 0.1 < math.hypot(x - 0.525, y - 0.525) <= 0.3 and "nearest free cell" in note
+    with pytest.raises(GoalError, match="lethal cell"):
+        accept_goal(master, [static], (1.6, 1.0, 0.0), False, 0.0, 0.31)
+    with pytest.raises(GoalError, match="lethal cell"):               # no static layer: the costmap decides
+        accept_goal(master, [], (0.525, 0.525, 0.0), False, 0.0, 0.31)
+    with pytest.raises(GoalError, match="off the map"):
+        accept_goal(master, [static], (5.0, 1.0, 0.0), False, 0.0, 0.31)
 
 
 @pytest.mark.parametrize("local_type", ["dwa_local_planner/DWAPlannerROS", "base_local_planner/TrajectoryPlannerROS"])

@@ -238,6 +238,18 @@ def scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max
                        max_obstacle_height=max_obstacle_height, source=source)
 
 
+def source_observation(src, ranges, angle_min, angle_increment, range_min, range_max, sensor_pose,
+                       sensor_z=None):
+    """A LaserScan of observation source src (an ObstacleLayer.sources entry) -> its
+    Observation, with the source's marking, clearing, ranges, inf_is_valid and height band
+    (scan_to_observation's other arguments)."""
+    return scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max, sensor_pose,
+                               src["inf_is_valid"], src["obstacle_range"], src["raytrace_range"],
+                               src["marking"], src["clearing"], sensor_z=sensor_z,
+                               min_obstacle_height=src["min_obstacle_height"],
+                               max_obstacle_height=src["max_obstacle_height"], source=src["name"])
+
+
 def ray_cells(x0, y0, x1, y1):
     """Cells on straight lines from cell (x0, y0) to cells (x1, y1), all rays at once.
 

@@ -8,7 +8,9 @@ failed attempts), without a valid command for controller_patience [s], or withou
 moving oscillation_distance [m] in oscillation_timeout [s], it goes to CLEARING: the
 recovery behaviours run one after the other, each followed by planning again; a valid
 plan (or command, or movement) for the trigger that sent it there starts the sequence
-over; once they are used up the goal is aborted with move_base's text.
+over; once they are used up the goal is aborted with move_base's text. The planner thread
+makes one attempt per control cycle while PLANNING (the control loop wakes it each cycle)
+and one every 1 / planner_frequency while CONTROLLING (planner_wait).
 
 The plan is made in the global frame (map) and driven in the local one (odom). As
 base_local_planner's transformGlobalPlan does every control cycle, the plan the local
@@ -19,7 +21,8 @@ is in the map whether or not a new plan comes.
 MoveBaseCore is pure: time comes in as seconds, poses as (x, y, yaw), plugins (nav_core
 shapes) are passed in, and each control cycle returns what to publish and log. It is not
 thread-safe: the node calls it under one lock from its control loop and planner thread.
-Also here: the checks of a goal before it is accepted (GoalError with the abort text).
+Also here: the checks of a goal before it is accepted (accept_goal; GoalError with the
+abort text).
 """
 import collections
 import math
@@ -41,11 +44,11 @@ RECOVERY_FAILED = {
     CONTROLLING_R: "Failed to find a valid control. Even after executing recovery behaviors.",
     OSCILLATION_R: "Robot is oscillating. Even after executing recovery behaviors.",
 }
-PLAN_FAIL_PAUSE = 0.1        # [s] between failed planning attempts when planner_frequency is 0
 TRAIL_STEP = 0.02            # [m] between the trail points kept for back_up
 TRAIL_POINTS = 250           # the last 5 m of them
 QUATERNION_TOLERANCE = 1e-2  # |norm - 1| accepted in a goal's orientation [-]
 UPRIGHT_TOLERANCE = 1e-3     # 1 - cos(tilt) accepted: a goal may only rotate about z [-]
+INVALID_GOAL = "Aborting on goal because it was sent with an invalid goal: "   # + GoalError's text
 WARN, INFO = "warn", "info"
 FRAME_MOVED = 1e-9           # [m, rad] a global -> local transform change below this is none
 
@@ -143,6 +146,27 @@ def blocked_by_map(static_grids, goal, inscribed_radius, allow_unknown):
     return False
 
 
+def accept_goal(costmap, static_grids, goal, allow_unknown, tolerance, inscribed_radius, frame="map"):
+    """The goal (x, y, yaw) move_base drives to, checked on the global costmap (Costmap2D)
+    when it arrives: as given when its cell is free; moved to the nearest free cell within
+    tolerance [m] (the global planner's default_tolerance); as given when only what the
+    sensors marked blocks it (the static layers' grids, static_grids, leave it free:
+    blocked_by_map within inscribed_radius [m]). GoalError (the abort text after
+    INVALID_GOAL) when it is off the costmap or the map blocks it. Returns (goal, note):
+    note, what to log about the goal ('' when nothing)."""
+    try:
+        checked, moved = check_goal_cell(costmap, goal, allow_unknown, tolerance, frame)
+    except GoalError as e:
+        if not static_grids or blocked_by_map(static_grids, goal, inscribed_radius, allow_unknown):
+            raise
+        return tuple(goal), (f"{e}; the map leaves it free, so it is planned to as given "
+                             f"(obstacles the sensors marked may move or be cleared)")
+    if moved:
+        return checked, (f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is blocked; driving to the nearest free cell "
+                         f"({checked[0]:.2f}, {checked[1]:.2f})")
+    return checked, ""
+
+
 # -- the state machine ---------------------------------------------------------------------
 @dataclass
 class CycleOutput:
@@ -172,8 +196,10 @@ class MoveBaseCore:
     order (nav_core.RecoveryBehavior).
 
     Use: start_goal(goal, now) for each new goal (it preempts the active one); the
-    planner thread asks plan_request() and reports on_plan(); the control loop calls
-    cycle() every period and publishes its CycleOutput; stop() when the goal ends.
+    planner thread waits planner_wait() (wait_for_plan_request), takes the request with
+    begin_plan() and reports on_plan(); the control loop calls cycle() every period,
+    notifies the planner thread while run_planner and publishes its CycleOutput; stop()
+    when the goal ends.
     """
 
     def __init__(self, config, make_local_planner, recoveries):
@@ -195,6 +221,8 @@ class MoveBaseCore:
         self.trigger = PLANNING_R           # what last sent (or would send) it to CLEARING
         self.failure = ""                   # why it last went to CLEARING
         self.run_planner = goal is not None
+        self.planner_wake = goal is not None   # a control-loop wake not yet used by an attempt
+        self.next_replan = now              # [s] CONTROLLING: the planner_frequency attempt is due
         self.new_plan = None                # (N, 2) global plan not yet given to the controller
         self.has_plan = False               # the controller has a plan
         self.plan_frame = None              # the global -> local transform it was expressed with
@@ -253,12 +281,31 @@ class MoveBaseCore:
                                f"attempts ({reason}): starting recoveries", False))
         return logs
 
-    def next_plan_delay(self, planned, took):
-        """[s] the planner thread waits before its next attempt, after one that took took
-        [s] and found a plan (planned) or not."""
-        if self.config.planner_frequency > 0:
-            return max(0.0, 1.0 / self.config.planner_frequency - took)
-        return 0.0 if planned else PLAN_FAIL_PAUSE
+    def planner_wait(self, now):
+        """[s] the planner thread waits from now [s] before its next attempt: 0 to plan now,
+        math.inf until the control loop wakes it (or a new goal).
+
+        move_base's planThread: while PLANNING, one attempt per wake, and the control loop
+        wakes it once per cycle (and a new goal once), so a planner that keeps failing is
+        tried once per control cycle, never back to back; while CONTROLLING, an attempt
+        1 / planner_frequency after the last one began (planner_frequency 0: no replanning,
+        run_planner is off). Nothing to plan: math.inf."""
+        if self.plan_request() is None:
+            return math.inf
+        if self.state == PLANNING:
+            return 0.0 if self.planner_wake else math.inf
+        return max(0.0, self.next_replan - now)
+
+    def begin_plan(self, now):
+        """The planner thread starts an attempt at now [s]: (goal_id, goal) to plan for (as
+        plan_request), the wake it answers used up and the next planner_frequency attempt
+        timed from now; None when no plan is wanted."""
+        request = self.plan_request()
+        if request is not None:
+            self.planner_wake = False
+            if self.config.planner_frequency > 0:
+                self.next_replan = now + 1.0 / self.config.planner_frequency
+        return request
 
     def _to_clearing(self, trigger, failure):
         self.state, self.trigger, self.failure = CLEARING, trigger, failure
@@ -277,8 +324,15 @@ class MoveBaseCore:
         global_pose, local_pose: the robot's (x, y, yaw) in the global and local frames
         (None when unknown: the robot is stopped); velocity (vx, vy, vth) from odometry;
         costmap: the local Costmap2D (held still by the caller); global_to_local: the
-        global frame's pose in the local frame, or None when unknown.
+        global frame's pose in the local frame, or None when unknown. A cycle that leaves
+        the goal waiting for a plan wakes the planner thread for one attempt (planner_wait).
         """
+        out = self._cycle(now, global_pose, local_pose, velocity, costmap, global_to_local)
+        if self.goal is not None and self.run_planner and self.state == PLANNING:
+            self.planner_wake = True
+        return out
+
+    def _cycle(self, now, global_pose, local_pose, velocity, costmap, global_to_local):
         out = CycleOutput()
         if self.goal is None or global_pose is None or local_pose is None:
             return out
@@ -406,6 +460,22 @@ class MoveBaseCore:
         self.last_valid_control = now
         self.last_oscillation_reset = now
         return out
+
+
+def wait_for_plan_request(core, cv, clock, running, idle):
+    """The planner thread's wait for its next attempt (move_base's planThread): under cv
+    (a threading.Condition over the lock that guards core, notified by the control loop
+    every cycle while core.run_planner and at each new goal), wait what core.planner_wait
+    says, at most idle [s] of wall time at once so running() and the clock (clock():
+    now [s], ROS time) are looked at again; then core.begin_plan. Returns its
+    (goal_id, goal), or None once running() is false."""
+    with cv:
+        while running():
+            wait = core.planner_wait(clock())
+            if wait <= 0.0:
+                return core.begin_plan(clock())
+            cv.wait(min(wait, idle))
+    return None
 
 
 class RateWatch:
