@@ -235,15 +235,15 @@ class CourseProject:
     def start_navigation(self, map_yaml, initial, spots_file):
         """Step 2/3/4's launches on the saved map: main.launch (map_server, amcl,
         move_base, /get_coordinates) and the spot recorder."""
-        import actionlib
         import rospy
         from move_base_msgs.msg import MoveBaseAction
+        from summit_nav_common.ros.action_client import SimpleActionClient
         self.start("main", ["roslaunch", "my_summit_navigation", "main.launch", "sim:=false", f"map_file:={map_yaml}",
                             f"initial_pose_x:={initial[0]:.4f}", f"initial_pose_y:={initial[1]:.4f}",
                             f"initial_pose_a:={initial[2]:.4f}", f"spots_file:={spots_file}"])
         self.start("spot_recorder", ["roslaunch", "my_summit_localization", "spot_recorder.launch",
                                      f"spots_file:={spots_file}"])
-        self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self.client = SimpleActionClient("move_base", MoveBaseAction)
         import tf2_ros
         self._tf = tf2_ros.Buffer()
         self._tf_listener = tf2_ros.TransformListener(self._tf)

@@ -41,6 +41,7 @@ from roslaunch_session import RoslaunchSession, run_bounded, wait_for, wait_for_
 
 from my_summit_navigation.multi_robot import robots_param  # noqa: E402
 from summit_nav_common.map_io import load_map  # noqa: E402
+from summit_nav_common.ros.action_client import SimpleActionClient
 
 MAP_YAML = os.path.join(PKG, "maps", "willow-full.yaml")
 LINE = re.compile(r"MULTI_ROBOT (.*?) text=")
@@ -192,7 +193,7 @@ def scale_run(n, points, window, tmp):
     with RoslaunchSession([path], log=os.path.join(tmp, f"scale_{n}.log")) as s:
         wait_for_sim_time_param(s)
         rospy.init_node("bench_multi_robot", anonymous=True, disable_signals=True)
-        clients = [actionlib.SimpleActionClient(f"/robot_{k}/move_base", MoveBaseAction) for k in range(n)]
+        clients = [SimpleActionClient(f"/robot_{k}/move_base", MoveBaseAction) for k in range(n)]
         wait_for(lambda: all(c.wait_for_server(rospy.Duration(0.1)) for c in clients), 180,
                  f"{n} move_base servers", s)
         rospy.sleep(2.0)

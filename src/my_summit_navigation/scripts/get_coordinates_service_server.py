@@ -29,7 +29,6 @@ my_summit_navigation.spot_goals.
 import threading
 import time
 
-import actionlib
 import rospkg
 import rospy
 from my_summit_navigation.goals import move_base_goal
@@ -37,6 +36,7 @@ from move_base_msgs.msg import MoveBaseAction
 
 from my_summit_navigation import spot_goals as sg
 from my_summit_navigation.srv import MyServiceMessage, MyServiceMessageResponse
+from summit_nav_common.ros.action_client import SimpleActionClient
 
 WAIT_STEP = 0.1         # [s] ROS time: how often a waiting call looks at its goal
 CLOCK_WAIT_STEP = 0.05  # [s] wall: poll of /clock before the first sim-time wait
@@ -63,7 +63,7 @@ class _Call:
 class GetCoordinatesServer:
     """/get_coordinates: label -> move_base goal -> answer.
 
-    book: sg.SpotBook; client: actionlib.SimpleActionClient of move_base;
+    book: sg.SpotBook; client: SimpleActionClient (summit_nav_common.ros.action_client) of move_base;
     action_name: its name (for the answer texts); server_timeout, goal_timeout [s].
     """
 
@@ -166,7 +166,7 @@ def main():
                      "every call will be answered false with this reason until the file is fixed")
     else:
         rospy.loginfo(f"get_coordinates: {len(book.spots)} spots ({', '.join(book.spots)}) from {path}")
-    client = actionlib.SimpleActionClient(action_name, MoveBaseAction)
+    client = SimpleActionClient(action_name, MoveBaseAction)
     server = GetCoordinatesServer(book, client, rospy.resolve_name(action_name), server_timeout, goal_timeout)
     rospy.loginfo(f"get_coordinates: {server.service.resolved_name} ready (move_base action "
                   f"{rospy.resolve_name(action_name)})")

@@ -24,7 +24,6 @@ reached, retried, skipped, time. The decisions are my_summit_navigation.patrol_l
 import math
 import threading
 
-import actionlib
 import rospkg
 import rospy
 import tf2_ros
@@ -35,6 +34,7 @@ from std_srvs.srv import Empty, Trigger, TriggerResponse
 
 from my_summit_localization.spots import Spot
 from summit_nav_common.geometry import quaternion_to_yaw
+from summit_nav_common.ros.action_client import SimpleActionClient
 from my_summit_navigation import patrol_logic as pl
 from my_summit_navigation.goals import move_base_goal
 from my_summit_navigation.spot_goals import STATE_NAMES, SpotBook
@@ -61,7 +61,7 @@ class Patrol:
             else pl.build_stops(poses=poses, frame=self.frame)
         self.log = pl.PatrolLog()
         self.home_requested = threading.Event()
-        self.client = actionlib.SimpleActionClient(self.action, MoveBaseAction)
+        self.client = SimpleActionClient(self.action, MoveBaseAction)
         self.summary_pub = rospy.Publisher("~summary", String, queue_size=1, latch=True)
         self.tf = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf)

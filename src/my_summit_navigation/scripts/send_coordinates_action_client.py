@@ -18,11 +18,11 @@ import argparse
 import math
 import sys
 
-import actionlib
 import rospkg
 import rospy
 from my_summit_navigation.goals import move_base_goal, wait_clock
 from move_base_msgs.msg import MoveBaseAction
+from summit_nav_common.ros.action_client import SimpleActionClient
 
 from my_summit_navigation import spot_goals as sg
 
@@ -75,7 +75,7 @@ def main(argv):
         return EXIT_USAGE
     # Ctrl-C raises KeyboardInterrupt here (not a rospy shutdown) so the goal can still be canceled
     rospy.init_node("send_coordinates_action_client", anonymous=True, disable_signals=True)
-    client = actionlib.SimpleActionClient(args.action, MoveBaseAction)
+    client = SimpleActionClient(args.action, MoveBaseAction)
     print(f"waiting for move_base ({rospy.resolve_name(args.action)}) ...", flush=True)
     if not wait_clock(args.server_timeout) or not client.wait_for_server(rospy.Duration(args.server_timeout)):
         print(sg.answer_no_server(rospy.resolve_name(args.action), args.server_timeout), flush=True)

@@ -24,11 +24,11 @@ robot or no move_base); 2 bad arguments or parameters (nothing sent).
 """
 import sys
 
-import actionlib
 import rosgraph
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction
+from summit_nav_common.ros.action_client import SimpleActionClient
 
 from my_summit_navigation import spot_goals as sg
 from my_summit_navigation.goals import move_base_goal, wait_clock
@@ -73,7 +73,7 @@ def main(argv):
     action = f"/{robot}/move_base"
     what = f"{robot}: goal ({spot.x:.2f}, {spot.y:.2f}) m, {rospy.get_param('~goal_theta')} deg in {frame_id}"
 
-    client = actionlib.SimpleActionClient(action, MoveBaseAction)
+    client = SimpleActionClient(action, MoveBaseAction)
     if not wait_clock(server_timeout) or not client.wait_for_server(rospy.Duration(server_timeout)):
         reason = why_no_server(robot, action) if not rospy.Time.now().is_zero() else \
             "no /clock (is the simulator running?)"

@@ -10,13 +10,13 @@ import sys
 import threading
 import time
 
-import actionlib
 import rospkg
 import rospy
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from std_msgs.msg import UInt32
+from summit_nav_common.ros.action_client import SimpleActionClient
 
 sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_localization"), "test"))
 import loctest_util as lu  # noqa: E402,F401  (re-exported: Latest, wait_for, map_in_world, ...)
@@ -40,7 +40,7 @@ def make_goal(x, y, yaw=0.0, frame="map", q=None):
 
 def client(name="move_base"):
     """A SimpleActionClient connected to move_base (AssertionError when it does not come up)."""
-    c = actionlib.SimpleActionClient(name, MoveBaseAction)
+    c = SimpleActionClient(name, MoveBaseAction)
     if not c.wait_for_server(rospy.Duration(0)) and not _wait_server(c):
         raise AssertionError(f"no action server {name} within {SERVER_WAIT} s")
     return c
