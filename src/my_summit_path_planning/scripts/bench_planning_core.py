@@ -68,6 +68,7 @@ from my_summit_path_planning.nav_core import namespace_of  # noqa: E402
 from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E402
 from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
 from my_summit_path_planning.plugins import MoveBasePlugins  # noqa: E402
+from summit_nav_common.geometry import angle_diff  # noqa: E402
 
 CONFIG = os.path.join(HERE, "..", "config")
 WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
@@ -466,7 +467,7 @@ def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
         ms = core.local_planner.ms
     optimal = first_len / max_vel_x if first_len else geodesic_optimal
     err = math.hypot(st.pose[0] - gx, st.pose[1] - gy)
-    yaw_err = abs((st.pose[2] - gyaw + math.pi) % (2 * math.pi) - math.pi)
+    yaw_err = abs(angle_diff(st.pose[2], gyaw))
     cfg = plugins.local_planner.config
     reached = end is not None and end[0] == "succeeded"
     ok = reached and err <= cfg.xy_goal_tolerance + 0.05 and yaw_err <= cfg.yaw_goal_tolerance + 0.05
