@@ -32,8 +32,9 @@ def stop_process_tree(proc, grace=20.0):
     """
     if proc is None:
         return
-    below = process_tree(proc.pid)[1:] if proc.poll() is None else []
-    if proc.poll() is None:
+    running = proc.poll() is None
+    below = process_tree(proc.pid)[1:] if running else []
+    if running:
         try:
             os.killpg(proc.pid, signal.SIGINT)
             proc.wait(timeout=grace)
