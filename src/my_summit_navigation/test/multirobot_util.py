@@ -2,7 +2,9 @@
 
 RobotWatch keeps, for one robot namespace, its true pose (/R/base_pose_ground_truth),
 its collision count (/R/collisions, latched), the last move_base result
-(/R/move_base/result) and the localization error of /R/amcl_pose against the truth, and the smallest distance to any other watched robot.
+(/R/move_base/result), the end of its last global plan (/R/<plan_topic>) and the
+localization error of /R/amcl_pose against the truth. Closest keeps the smallest distance
+between any two watched robots and where two of them passed each other.
 """
 import math
 import threading
@@ -13,7 +15,7 @@ from summit_nav_common.geometry import quaternion_to_yaw as yaw_of  # noqa: F401
 from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseActionResult
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import Odometry, Path
 from std_msgs.msg import UInt32
 
 from my_summit_navigation.multi_robot import pose_error
@@ -24,7 +26,7 @@ STATE_NAMES = {v: k for k, v in GoalStatus.__dict__.items() if k.isupper() and i
 class RobotWatch:
     """Ground truth, collisions and move_base's result of robot `name` (thread-safe)."""
 
-    def __init__(self, name):
+    def __init__(self, name, plan_topic="move_base/NavfnROS/plan"):
         self.name = name
         self.lock = threading.Lock()
         self.pose = None             # (x, y, yaw) by ground truth, map frame
@@ -33,11 +35,13 @@ class RobotWatch:
         self.result = None           # (state, text, stamp [s]) of the last move_base result
         self.loc_error_max = 0.0     # [m] largest amcl_pose error against the ground truth
         self.loc_error = None        # [m] the latest one
+        self.plan_end = None         # (x, y) of the last non-empty global plan's last pose
         self.subs = [
             rospy.Subscriber(f"/{name}/base_pose_ground_truth", Odometry, self._on_truth, queue_size=5),
             rospy.Subscriber(f"/{name}/collisions", UInt32, self._on_collisions, queue_size=5),
             rospy.Subscriber(f"/{name}/move_base/result", MoveBaseActionResult, self._on_result, queue_size=5),
             rospy.Subscriber(f"/{name}/amcl_pose", PoseWithCovarianceStamped, self._on_estimate, queue_size=5),
+            rospy.Subscriber(f"/{name}/{plan_topic}", Path, self._on_plan, queue_size=5),
         ]
 
     def _on_truth(self, msg):
@@ -54,6 +58,12 @@ class RobotWatch:
             if self.pose is not None:
                 self.loc_error = math.hypot(p.x - self.pose[0], p.y - self.pose[1])
                 self.loc_error_max = max(self.loc_error_max, self.loc_error)
+
+    def _on_plan(self, msg):
+        if msg.poses:
+            p = msg.poses[-1].pose.position
+            with self.lock:
+                self.plan_end = (p.x, p.y)
 
     def _on_collisions(self, msg):
         with self.lock:
@@ -75,11 +85,15 @@ class RobotWatch:
 
 class Closest:
     """The smallest centre distance [m] between any two watched robots, sampled at `period`
-    [s] wall in a thread of its own."""
+    [s] wall in a thread of its own; and, for the first two, where they passed each other:
+    `passed_at` is their two true poses at the first sample where the order of their y
+    coordinates is the reverse of the first sample's (None while it is not)."""
 
     def __init__(self, watches, period=0.05):
         self.watches = watches
         self.min_distance = math.inf
+        self.passed_at = None
+        self._first_order = None
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self._run, args=(period,), daemon=True)
         self.thread.start()
@@ -91,6 +105,12 @@ class Closest:
                 for j in range(i + 1, len(poses)):
                     d = math.hypot(poses[i][0] - poses[j][0], poses[i][1] - poses[j][1])
                     self.min_distance = min(self.min_distance, d)
+            if len(poses) == len(self.watches) >= 2 and self.passed_at is None:
+                order = poses[0][1] > poses[1][1]
+                if self._first_order is None:
+                    self._first_order = order
+                elif order != self._first_order:
+                    self.passed_at = (poses[0], poses[1])
 
 
 def wait_results(watches, timeout_wall, since=0.0, poll=0.1):

@@ -5,7 +5,8 @@ From the spawn pose in the main hall to the fetch room's centre: the goal must s
 within ~max_sim_time, the robot stand within the DWA goal tolerances of the goal by
 ground truth (in the map frame; plus a margin for amcl's own error), with zero
 collisions; on the way the action gives feedback and move_base publishes its global
-plan, the local plan and both costmaps (the costmaps matching the map's geometry).
+plan, the local plan, the current goal and both costmaps (the costmaps matching the map's
+geometry).
 """
 import math
 import sys
@@ -14,7 +15,7 @@ import unittest
 import rospy
 import rostest
 from nav_msgs.msg import OccupancyGrid, Path
-from geometry_msgs.msg import PolygonStamped
+from geometry_msgs.msg import PolygonStamped, PoseStamped
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 import mbtest_util as mt  # noqa: E402
@@ -38,6 +39,7 @@ class MoveBaseGoal(unittest.TestCase):
         gcost = lu.Latest("/move_base/global_costmap/costmap", OccupancyGrid)
         lcost = lu.Latest("/move_base/local_costmap/costmap", OccupancyGrid)
         foot = lu.Latest("/move_base/local_costmap/footprint", PolygonStamped)
+        current_goal = lu.Latest("/move_base/current_goal", PoseStamped)
         the_map = lu.Latest("/map", OccupancyGrid)
         lu.wait_clock()
         c = mt.client()
@@ -77,6 +79,12 @@ class MoveBaseGoal(unittest.TestCase):
         self.assertEqual(p.header.frame_id, "map")
         self.assertLess(math.hypot(p.poses[-1].pose.position.x - goal[0], p.poses[-1].pose.position.y - goal[1]),
                         0.05)
+        cg = current_goal.wait()          # the goal as received, in the global frame
+        self.assertEqual(cg.header.frame_id, "map")
+        self.assertAlmostEqual(cg.pose.position.x, goal[0], places=6)
+        self.assertAlmostEqual(cg.pose.position.y, goal[1], places=6)
+        self.assertAlmostEqual(lu.wrap(2 * math.atan2(cg.pose.orientation.z, cg.pose.orientation.w) - goal[2]), 0.0,
+                               places=6)
         self.assertGreater(local_plan.count, 0)
         self.assertEqual(local_plan.msg.header.frame_id, "odom")
         m = the_map.wait()
