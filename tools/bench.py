@@ -288,10 +288,12 @@ def bench_amcl(runs):
 def bench_planning(runs):
     """The path-planning core benchmark; timings are medians over `runs` repeats (the
     closed loop is seeded and deterministic, so it runs once, every planner combination,
-    one combination per core at a time, after the timings)."""
+    one pair per core at a time, after the timings; each combination is kept in
+    output/bench_planning_parts/ as it is done)."""
     res = _run_script("my_summit_path_planning", "bench_planning_core.py",
                       ["--repeats", str(runs), "--runs", "50", "--willow-runs", "20", "--matrix",
-                       "--jobs", str(os.cpu_count() or 1)], "bench_planning.json")
+                       "--jobs", str(os.cpu_count() or 1), "--parts", os.path.join(OUT, "bench_planning_parts")],
+                      "bench_planning.json")
     # For contrast, the built-in world's closed loop at the base's top speed (1.5 m/s):
     # the in-place turns and the acceleration take the same time at any max_vel_x, so
     # they weigh more in the time ratio the faster the robot may drive.

@@ -33,13 +33,15 @@
    (TrajectoryPlannerROS: base_local_planner_params.yaml, the navigation_stage lesson's
    values with the Summit's turning limits and the planner's sim_time), the dwa flag from
    the option. --matrix runs every combination over the same pairs and prints a table;
-   each combination is one JSON key (combination_key). --jobs N runs N combinations at a
-   time in forked processes (the closed loop is simulated and seeded: the same figures).
+   each combination is one JSON key (combination_key). --jobs N runs N pairs at a time in
+   forked processes (the closed loop is simulated and seeded: the same figures); --parts
+   DIR writes each combination as it is done, --resume takes those of the same commit.
 
 Parameters come from the package's config/*.yaml. Usage:
   bench_planning_core.py [--runs 50] [--willow-runs 20] [--repeats 3] [--json PATH]
                          [--max-vel-x 1.5] [--global-planner navfn|astar|dijkstra]
                          [--local-planner dwa|trajectory|trajectory-dwa] [--matrix] [--jobs 2]
+                         [--parts DIR [--resume]]
   replay one run: --skip-navfn --runs 10 --only 7 -v --trace 0.5
 """
 import argparse
@@ -517,11 +519,20 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
                   f"plan={plan}m geodesic={pair['geodesic_m']:.1f}m modes "
                   f"{ {m: round(v, 1) for m, v in run['mode_s'].items()} } moving at {run['t_moving_s']} "
                   f"recoveries {run['recovery_behaviors']} {run['failure']}", flush=True)
+    return summarize({"world": world_yaml, "global_planner": global_kind, "local_planner": planner_kind,
+                      "global_type": plugins.global_type, "local_type": plugins.local_type,
+                      "max_vel_x": plugins.local_planner.config.max_vel_x}, runs)
+
+
+HEADER_KEYS = ("world", "global_planner", "local_planner", "global_type", "local_type", "max_vel_x")
+
+
+def summarize(header, runs):
+    """One combination's figures over its runs (drive_goal records, in pair order);
+    header: its HEADER_KEYS."""
     reached = [r for r in runs if r["reached"]]
     # Medians over every run: a run that failed counts with the time it was given up at.
-    return {"world": world_yaml, "global_planner": global_kind, "local_planner": planner_kind,
-            "global_type": plugins.global_type, "local_type": plugins.local_type,
-            "max_vel_x": plugins.local_planner.config.max_vel_x, "runs": len(runs),
+    return {**{k: header[k] for k in HEADER_KEYS}, "runs": len(runs),
             "reached_share": len(reached) / max(1, len(runs)),
             "collisions": int(sum(r["collisions"] for r in runs)),
             "ratio_median": float(np.median([r["ratio"] for r in runs])) if runs else None,
@@ -532,12 +543,12 @@ def closed_loop(params, world_yaml, n_runs, seed=0, verbose=False, only=None, tr
 def matrix_table(results):
     """The compact table of closed-loop results [(world key, result), ...] as lines."""
     lines = [f"{'world':<8} {'global':<9} {'local':<15} {'reached':>8} {'coll':>5} "
-             f"{'t/geodesic':>10} {'t/plan':>7} {'wall s':>7}"]
+             f"{'t/geodesic':>10} {'t/plan':>7} {'CPU s':>7}"]
     for name, c in results:
         geo, plan = c["geodesic_ratio_median"], c["ratio_median"]
         lines.append(f"{name:<8} {c['global_planner']:<9} {c['local_planner']:<15} "
                      f"{c['reached_share'] * 100:7.0f}% {c['collisions']:5d} "
-                     f"{_r(geo):>10} {_r(plan):>7} {c.get('wall_s', 0):7.0f}")
+                     f"{_r(geo):>10} {_r(plan):>7} {c.get('cpu_s', 0):7.0f}")
     return lines
 
 
@@ -546,15 +557,51 @@ def _r(x):
 
 
 def run_jobs(run, jobs, n_procs):
-    """[run(job) for job in jobs], n_procs at a time in forked children (run may be a
-    closure: the children inherit it; only its result goes back, pickled)."""
+    """run(job) for each job, in order, as an iterator; n_procs at a time in forked
+    children (run may be a closure: the children inherit it; only its result goes back,
+    pickled)."""
     if n_procs <= 1 or len(jobs) <= 1:
-        return [run(job) for job in jobs]
+        yield from (run(job) for job in jobs)
+        return
     import multiprocessing
     global _FORKED_RUN
     _FORKED_RUN = run
     with multiprocessing.get_context("fork").Pool(n_procs) as pool:
-        return pool.map(_forked_run, jobs, chunksize=1)
+        yield from pool.imap(_forked_run, jobs, chunksize=1)
+
+
+def save_part(folder, key, commit, result):
+    """Write one combination's result to folder/key.json (atomically), stamped with commit."""
+    if not folder:
+        return
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, key + ".json")
+    with open(path + ".tmp", "w") as f:
+        json.dump(dict(result, commit=commit), f, indent=1)
+    os.replace(path + ".tmp", path)
+
+
+def load_part(folder, key, commit):
+    """The result save_part wrote for key, when it is from this commit (a clean tree); else None."""
+    path = os.path.join(folder, key + ".json")
+    if not os.path.exists(path) or not commit or commit.endswith("+"):
+        return None
+    with open(path) as f:
+        part = json.load(f)
+    return part if part.get("commit") == commit else None
+
+
+def git_commit():
+    """The workspace's HEAD commit, with '+' when its tree has changes ('' outside git)."""
+    import subprocess
+    try:
+        head = subprocess.run(["git", "-C", WORKSPACE, "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", WORKSPACE, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+    return head + ("+" if dirty else "")
 
 
 _FORKED_RUN = None
@@ -586,8 +633,15 @@ def main(argv=None):
                     help="the closed loop's global planner (astar, dijkstra: global_planner/GlobalPlanner)")
     ap.add_argument("--matrix", action="store_true",
                     help="closed loop of every (global, local) planner combination over the same pairs")
-    ap.add_argument("--jobs", type=int, default=1, help="closed-loop combinations run at a time (processes)")
+    ap.add_argument("--jobs", type=int, default=1, help="closed-loop runs at a time (processes)")
+    ap.add_argument("--parts", help="write each closed-loop combination here as <key>.json as soon as it is "
+                                    "done (a stopped benchmark keeps the finished ones)")
+    ap.add_argument("--resume", action="store_true",
+                    help="take the combinations already in --parts from the same commit instead of running them")
     args = ap.parse_args(argv)
+    if args.resume and not args.parts:
+        ap.error("--resume needs --parts DIR")
+    commit = git_commit()
     params = load_move_base_params(CONFIG)
     out = {"max_vel_x": combination_params(params, max_vel_x=args.max_vel_x).dwa.max_vel_x}
     if not args.skip_navfn:
@@ -632,30 +686,51 @@ def main(argv=None):
               f"{d['p90_ms']:.2f} ms, {d['samples']} samples", flush=True)
     combos = [(g, loc) for g in GLOBAL_PLANNERS for loc in LOCAL_PLANNERS] if args.matrix \
         else [(args.global_planner, args.local_planner)]
-    jobs = []   # (world, path, n_runs, pairs, global_kind, local_kind)
+    # One job per (combination, pair), so that every process stays busy to the end; the
+    # pairs of a combination are merged in order as its last one is done.
+    combos_todo, jobs = [], []   # (world, path, global_kind, local_kind, n_pairs); (combo index, pair index)
     for world, path in WORLDS:
         n_runs = {"builtin": args.runs, "willow": args.willow_runs}[world]
         if n_runs <= 0:
             continue
         pairs = draw_pairs(params, path, n_runs, args.seed)
-        jobs += [(world, path, n_runs, pairs, g, loc) for g, loc in combos]
+        for g, loc in combos:
+            key = combination_key(world, g, loc)
+            part = load_part(args.parts, key, commit) if args.resume else None
+            if part is not None:
+                print(f"closed loop {key}: kept from {args.parts} (commit {part['commit']})", flush=True)
+                out[key] = part
+                continue
+            ks = [k for k in range(len(pairs)) if not args.only or k + 1 in args.only]
+            combos_todo.append((world, path, g, loc, pairs, len(ks)))
+            jobs += [(len(combos_todo) - 1, k) for k in ks]
 
     def run(job):
-        world, path, n_runs, pairs, global_kind, local_kind = job
-        t0 = time.time()
-        c = closed_loop(params, path, n_runs, args.seed, args.verbose, args.only, args.trace, local_kind,
+        world, path, global_kind, local_kind, pairs, _ = combos_todo[job[0]]
+        t0 = time.process_time()
+        c = closed_loop(params, path, len(pairs), args.seed, args.verbose, [job[1] + 1], args.trace, local_kind,
                         global_kind, pairs, args.max_vel_x)
-        c["wall_s"] = time.time() - t0
+        c["cpu_s"] = time.process_time() - t0
+        return c
+
+    done, pieces, t_start = [], {}, time.time()
+    for job, c in zip(jobs, run_jobs(run, jobs, args.jobs)):
+        pieces.setdefault(job[0], []).append(c)
+        world, path, global_kind, local_kind, _, n_pairs = combos_todo[job[0]]
+        if len(pieces[job[0]]) < n_pairs:
+            continue
+        parts = pieces.pop(job[0])
+        c = summarize(parts[0], [r for p in parts for r in p["runs_detail"]])
+        c["cpu_s"] = sum(p["cpu_s"] for p in parts)
+        c["wall_s"] = time.time() - t_start     # since the closed loops began (they overlap)
         print(f"closed loop {os.path.basename(path)} ({global_kind} + {local_kind}): "
               f"{c['reached_share'] * 100:.0f}% of {c['runs']} reached, {c['collisions']} collisions, "
               f"time / (L / max_vel_x) median: L geodesic {_r(c['geodesic_ratio_median'])}, "
-              f"L plan {_r(c['ratio_median'])} ({c['wall_s']:.0f} s wall)", flush=True)
-        return c
-
-    done = []
-    for job, c in zip(jobs, run_jobs(run, jobs, args.jobs)):
-        out[combination_key(job[0], job[4], job[5])] = c
-        done.append((job[0], c))
+              f"L plan {_r(c['ratio_median'])} ({c['cpu_s']:.0f} s CPU)", flush=True)
+        key = combination_key(world, global_kind, local_kind)
+        out[key] = c
+        save_part(args.parts, key, commit, c)
+        done.append((world, c))
     if len(done) > 1:
         print("\n".join(matrix_table(done)), flush=True)
     out["peak_rss_mb"] = peak_rss_mb()

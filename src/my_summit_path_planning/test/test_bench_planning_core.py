@@ -2,8 +2,10 @@
 through the move_base plugin registry with the intended parameters, the pairs the same for
 every combination, and the JSON keys the benchmark page (tools/bench_report.py) reads."""
 import importlib.util
+import json
 import math
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -21,6 +23,7 @@ WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 def _load(name, path):
     spec = importlib.util.spec_from_file_location(name, path)
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod      # importable by name: the forked workers' functions are pickled by it
     spec.loader.exec_module(mod)
     return mod
 
@@ -167,3 +170,33 @@ def test_closed_loop_goal_in_a_wall_is_refused_as_the_node_refuses_it(params):
     assert run["failure"].startswith("aborted: Aborting on goal because it was sent with an invalid goal: goal "
                                      "(3.00, 0.02) is in an obstacle"), run["failure"]
     assert run["time_s"] == 0.0 and run["plans"] == 0 and not run["reached"]
+
+
+def _without_timings(runs):
+    return [{k: v for k, v in r.items() if not k.endswith("_ms")} for r in runs]
+
+
+def test_pairs_in_parallel_give_the_same_runs_and_each_combination_is_kept_as_it_is_done(tmp_path, monkeypatch):
+    """--jobs 2 runs the pairs in forked processes: the same runs, in pair order, as one
+    process; --parts keeps each finished combination stamped with the commit, and --resume
+    takes it instead of running it again (only from the same clean commit)."""
+    one, two, parts = tmp_path / "one.json", tmp_path / "two.json", tmp_path / "parts"
+    monkeypatch.setattr(bench, "git_commit", lambda: "abc1234")
+    assert bench.main(["--skip-navfn", "--runs", "2", "--jobs", "1", "--json", str(one)]) == 0
+    assert bench.main(["--skip-navfn", "--runs", "2", "--jobs", "2", "--json", str(two),
+                       "--parts", str(parts)]) == 0
+    a, b = (json.load(open(p))["closed_loop_builtin"] for p in (one, two))
+    assert a["runs"] == b["runs"] == 2
+    assert _without_timings(a["runs_detail"]) == _without_timings(b["runs_detail"])
+    kept = json.load(open(parts / "closed_loop_builtin.json"))
+    assert kept["commit"] == "abc1234" and kept["runs_detail"] == b["runs_detail"]
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("a kept combination was run again")
+    monkeypatch.setattr(bench, "closed_loop", no_run)
+    three = tmp_path / "three.json"
+    assert bench.main(["--skip-navfn", "--runs", "2", "--json", str(three), "--parts", str(parts), "--resume"]) == 0
+    assert json.load(open(three))["closed_loop_builtin"]["runs_detail"] == b["runs_detail"]
+    monkeypatch.setattr(bench, "git_commit", lambda: "def5678")     # another commit: run again
+    with pytest.raises(AssertionError, match="run again"):
+        bench.main(["--skip-navfn", "--runs", "2", "--parts", str(parts), "--resume"])
