@@ -39,7 +39,7 @@ def test_driving_into_a_wall_stops_and_counts_once(world):
     face = world.origin[0] + (last_wall + 1) * world.resolution
     front = s.pose[0] - 0.36
     assert face - 1e-9 <= front < face + 0.006  # stopped within one 5 mm step of the wall
-    assert s.collisions == 1
+    assert s.collisions == 1 and s.last_hit == "wall"
     drive(sim, "r", (-0.5, 0.0, 0.0), 1.0)  # backing off works
     assert s.pose[0] > 0.9
     assert s.collisions == 1
@@ -55,7 +55,7 @@ def test_box_blocks_and_is_seen(world):
     assert r[540] == pytest.approx(1.5, abs=1e-6)
     assert before > 3.0
     drive(sim, "r", (1.0, 0.0, 0.0), 3.0)
-    assert s.collisions == 1 and s.pose[0] + 0.36 <= 7.75 + 1e-9
+    assert s.collisions == 1 and s.pose[0] + 0.36 <= 7.75 + 1e-9 and s.last_hit == "box b"
     sim.world.remove_box("b")
     with pytest.raises(WorldError, match="no box named 'b'"):
         sim.world.remove_box("b")
@@ -70,7 +70,7 @@ def test_robots_see_and_block_each_other(world):
     assert ra[540] == pytest.approx(8.0 - 0.36 - 5.25, abs=1e-6)
     assert rb_[540] == pytest.approx(7.75 - 5.36, abs=1e-6)
     drive(sim, "robot_0", (1.0, 0.0, 0.0), 4.0)
-    assert a.collisions == 1
+    assert a.collisions == 1 and a.last_hit == "robot robot_1"
     assert a.pose[0] + 0.36 <= 8.0 - 0.36 + 1e-9
 
 

@@ -69,6 +69,7 @@ class RobotState:
     cmd: tuple = (0.0, 0.0, 0.0)      # last accepted command
     last_cmd_time: float = -math.inf  # sim time of the last command [s]
     collisions: int = 0
+    last_hit: str = ""            # what the last collision was with (blocked_by's answer)
     in_contact: bool = False
     free_travel: float = 0.0          # [m] moved since the last blocked move
     odom_vel: tuple = (0.0, 0.0, 0.0)
@@ -205,9 +206,11 @@ class Simulation:
                 state.odom_vel = vel
                 continue
             new_pose = rb.integrate_pose(state.pose, vel, dt)
-            if self.blocked_by(state, new_pose) is not None:
+            hit = self.blocked_by(state, new_pose)
+            if hit is not None:
                 if not state.in_contact:
                     state.collisions += 1
+                    state.last_hit = hit
                 state.in_contact = True
                 state.free_travel = 0.0
                 state.vel = (0.0, 0.0, 0.0)
