@@ -730,12 +730,10 @@ def rollout(cfg, pose, vel, samples, costmap, grids, polygon, biases):
         scored = live
     no_way = scored & ((path_d >= grids.obstacle_cost) | (goal_d >= grids.obstacle_cost))
     # The footprint outline at every point, each trajectory walked until its first failure
-    vx, vy, on_map = _vertex_cells(costmap, polygon, x[live], y[live], th[live])
-    k_v = polygon.shape[0]
-    pvx, pvy = np.zeros(x.shape + (k_v,), dtype=np.int64), np.zeros(x.shape + (k_v,), dtype=np.int64)
-    pon = np.zeros(x.shape, dtype=bool)
-    pvx[live], pvy[live], pon[live] = vx, vy, on_map
-    first, fail, occ = _first_failure(costmap.data, n, inside & pon, pvx, pvy, no_way, centre)
+    vert_x, vert_y, on_map = (np.zeros(x.shape + (len(polygon),), dtype=np.int64),
+                              np.zeros(x.shape + (len(polygon),), dtype=np.int64), np.zeros(x.shape, dtype=bool))
+    vert_x[live], vert_y[live], on_map[live] = _vertex_cells(costmap, polygon, x[live], y[live], th[live])
+    first, fail, occ = _first_failure(costmap.data, n, inside & on_map, vert_x, vert_y, no_way, centre)
     rows = np.arange(len(samples))
     if cfg.heading_scoring:
         for i, j in zip(*np.nonzero(scored & (first == n)[:, None])):
