@@ -8,7 +8,7 @@ import pytest
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D
 from my_summit_path_planning.navfn import (POT_HIGH, GridGraph, NavFn, NavfnConfig, dijkstra_reference,
-                                           grid_geodesic_length, navfn_costs)
+                                           grid_geodesic_length, grid_graph_matrix_reference, navfn_costs)
 
 
 def random_costs(rng, h, w):
@@ -30,6 +30,31 @@ def test_potential_matches_reference_dijkstra(seed):
         slow = dijkstra_reference(cc.tolist(), (int(sx), int(sy)))
         npt.assert_allclose(fast, slow, rtol=1e-12)
 
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_graph_matrix_equals_reference_bit_for_bit(seed):
+    """The one-pass CSR build: the same rows, columns in the same order and the same weights
+    as the matrix SciPy makes from the edge lists, so Dijkstra sees the same graph; the
+    connected components (cv2, 8-connected cells) the same partition as SciPy's."""
+    from scipy.sparse.csgraph import connected_components
+    rng = np.random.default_rng(seed)
+    h, w = [(1, 1), (1, 9), (23, 31), (60, 47)][seed]
+    costs = random_costs(rng, h, w)
+    costs[:, w // 2] = cv.LETHAL_OBSTACLE      # a wall: two components at least
+    for allow_unknown in (False, True):
+        cc = navfn_costs(costs, allow_unknown)
+        g, ref = GridGraph(cc), grid_graph_matrix_reference(cc)
+        ref.sort_indices()
+        npt.assert_array_equal(g.matrix.indptr, ref.indptr)
+        npt.assert_array_equal(g.matrix.indices, ref.indices)
+        npt.assert_array_equal(g.matrix.data, ref.data)
+        _, labels = connected_components(ref, directed=False)
+        ours = np.array([g.component_of(c) for c in g.cells])
+        assert len(set(zip(ours, labels))) == len(set(ours)) == len(set(labels))
+        assert all(g.component_of(c) == -1 for c in np.flatnonzero(~np.isfinite(cc).ravel()))
+        if seed >= 2:
+            assert len(set(labels)) > 1 and g.matrix.nnz > 0    # several components, edges
 
 def test_navfn_costs_translation():
     c = np.array([[0, 100, 252, 253, 254, 255]], np.uint8)

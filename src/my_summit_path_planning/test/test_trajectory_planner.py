@@ -98,6 +98,30 @@ def test_map_grid_equals_queue_wavefront(fp, seed):
     assert (fast == obstacle).any() and (fast == obstacle + 1).any() and (fast == 0).any()
 
 
+
+@pytest.mark.parametrize("seed", range(3))
+def test_footprint_cells_equal_reference(fp, seed):
+    """The filled footprint, at random poses including ones half off the costmap."""
+    m = _costmap(size=60, origin=(-1.5, -1.5))
+    rng = np.random.default_rng(20 + seed)
+    for pose in np.column_stack([rng.uniform(-1.9, 1.9, 60), rng.uniform(-1.9, 1.9, 60), rng.uniform(-4, 4, 60)]):
+        npt.assert_array_equal(tp.footprint_cells(m, fp.polygon, pose), tp.footprint_cells_reference(m, fp.polygon, pose))
+
+
+def test_densify_equals_reference():
+    """Points added between plan points further apart than the resolution, bit for bit."""
+    rng = np.random.default_rng(3)
+    for n in (0, 1, 2, 7, 60):
+        plan = np.cumsum(rng.uniform(-0.2, 0.2, (n, 2)), axis=0)
+        if n > 3:
+            plan[2] = plan[1]                # a repeated point
+            plan[3] = plan[2] + [0.05, 0.0]  # exactly one resolution apart
+        fast, ref = tp.densify(plan, RES), tp.densify_reference(plan, RES)
+        assert fast.shape == ref.shape
+        npt.assert_array_equal(fast, ref)
+        if n > 1:
+            assert np.hypot(*np.diff(fast, axis=0).T).max() <= RES + 1e-12
+
 def test_map_grid_counts_cells_round_a_wall(fp):
     """4-connected cells; an obstacle holds obstacle_cost, a walled-off cell one more."""
     m = Costmap2D(10, 6, RES)

@@ -11,8 +11,9 @@ The algorithm, in the order it runs:
 2. Potential: Dijkstra from the robot's cell over the grid (navfn_ros seeds the
    propagation at the robot so that default_tolerance can pick any reached cell near
    the goal). We run SciPy's compiled ``scipy.sparse.csgraph.dijkstra`` on an
-   8-connected grid graph built with numpy, edge weight = mean of the two cell costs x
-   step length [cells]. (navfn itself propagates a 4-connected wavefront with a
+   8-connected grid graph, its CSR matrix written in one compiled pass over the cells
+   (numba; ``grid_graph_matrix_reference`` builds it through SciPy's COO, the test
+   oracle), edge weight = mean of the two cell costs x step length [cells]. (navfn itself propagates a 4-connected wavefront with a
    quadratic interpolation; the 8-connected graph gives a comparably isotropic
    potential, and the slow pure-Python ``dijkstra_reference`` on the same graph is the
    test oracle.)
@@ -51,6 +52,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra as _sp_dijkstra
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+from summit_nav_common.jit import njit
 
 # navfn.h: navfn cost values are COST_NEUTRAL + COST_FACTOR * costmap cost. Costmap
 # costs 0..252 then spread evenly over 50..251. With a larger factor the costs near
@@ -127,6 +129,70 @@ def navfn_costs(costs, allow_unknown):
     return out
 
 
+# The eight neighbours of a cell in increasing flat index (dy, dx): the order of a CSR row.
+_ROW_ORDER_DY = np.array([-1, -1, -1, 0, 0, 1, 1, 1])
+_ROW_ORDER_DX = np.array([-1, 0, 1, -1, 1, -1, 0, 1])
+
+
+@njit(cache=True, nogil=True)
+def _grid_csr(cost, passable, node_of):
+    """(indptr, indices, data) of GridGraph's CSR matrix in one pass over the cells: each
+    passable cell's row lists its passable 8-neighbours in increasing node index, the
+    edge weighing the mean of the two cell costs x the step length [cells]."""
+    h, w = cost.shape
+    n = 0
+    for y in range(h):
+        for x in range(w):
+            if passable[y, x]:
+                n += 1
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    indices = np.empty(8 * n, dtype=np.int32)
+    data = np.empty(8 * n)
+    k, node = 0, 0
+    for y in range(h):
+        for x in range(w):
+            if not passable[y, x]:
+                continue
+            for j in range(8):
+                ny, nx = y + _ROW_ORDER_DY[j], x + _ROW_ORDER_DX[j]
+                if ny < 0 or nx < 0 or ny >= h or nx >= w or not passable[ny, nx]:
+                    continue
+                length = SQRT2 if (_ROW_ORDER_DY[j] != 0 and _ROW_ORDER_DX[j] != 0) else 1.0
+                indices[k] = node_of[ny * w + nx]
+                data[k] = 0.5 * (cost[y, x] + cost[ny, nx]) * length
+                k += 1
+            node += 1
+            indptr[node] = k
+    return indptr, indices[:k], data[:k]
+
+
+def grid_graph_matrix_reference(cell_cost):
+    """GridGraph's CSR matrix built edge list by edge list through SciPy's COO (test oracle)."""
+    cost = np.asarray(cell_cost, dtype=np.float64)
+    h, w = cost.shape
+    passable = np.isfinite(cost)
+    cells = np.flatnonzero(passable.ravel())
+    node_of = np.full(h * w, -1, dtype=np.int64)
+    node_of[cells] = np.arange(cells.size)
+    rows, cols, wts = [], [], []
+    flat_cost = cost.ravel()
+    # Each undirected edge once (right, up, up-right, up-left), then both directions.
+    for dx, dy in ((1, 0), (0, 1), (1, 1), (-1, 1)):
+        ys0, ys1 = 0, h - dy
+        xs0, xs1 = max(0, -dx), w - max(0, dx)
+        a = passable[ys0:ys1, xs0:xs1] & passable[ys0 + dy:ys1 + dy, xs0 + dx:xs1 + dx]
+        yy, xx = np.nonzero(a)
+        ia = (yy + ys0) * w + (xx + xs0)
+        ib = ia + dy * w + dx
+        length = SQRT2 if (dx and dy) else 1.0
+        wt = 0.5 * (flat_cost[ia] + flat_cost[ib]) * length
+        na, nb = node_of[ia], node_of[ib]
+        rows += [na, nb]
+        cols += [nb, na]
+        wts += [wt, wt]
+    n = cells.size
+    return sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
 class GridGraph:
     """The 8-connected graph of the passable cells of a cost grid, as a SciPy CSR matrix.
 
@@ -142,26 +208,10 @@ class GridGraph:
         self.cells = np.flatnonzero(passable.ravel())
         self.node_of = np.full(h * w, -1, dtype=np.int64)
         self.node_of[self.cells] = np.arange(self.cells.size)
-        rows, cols, wts = [], [], []
-        flat_cost = cost.ravel()
-        # Each undirected edge once (right, up, up-right, up-left), then both directions.
-        for dx, dy in ((1, 0), (0, 1), (1, 1), (-1, 1)):
-            ys0, ys1 = 0, h - dy
-            xs0, xs1 = max(0, -dx), w - max(0, dx)
-            a = passable[ys0:ys1, xs0:xs1] & passable[ys0 + dy:ys1 + dy, xs0 + dx:xs1 + dx]
-            yy, xx = np.nonzero(a)
-            ia = (yy + ys0) * w + (xx + xs0)
-            ib = ia + dy * w + dx
-            length = SQRT2 if (dx and dy) else 1.0
-            wt = 0.5 * (flat_cost[ia] + flat_cost[ib]) * length
-            na, nb = self.node_of[ia], self.node_of[ib]
-            rows += [na, nb]
-            cols += [nb, na]
-            wts += [wt, wt]
         n = self.cells.size
-        self.min_cost = float(flat_cost[self.cells].min()) if n else COST_NEUTRAL
-        self.matrix = sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))),
-                                    shape=(n, n))
+        self.min_cost = float(cost.ravel()[self.cells].min()) if n else COST_NEUTRAL
+        indptr, indices, data = _grid_csr(cost, passable, self.node_of)
+        self.matrix = sp.csr_matrix((data, indices, indptr), shape=(n, n))
 
     @property
     def _row_counts(self):
@@ -173,10 +223,10 @@ class GridGraph:
     def component_of(self, cell):
         """8-connected component label of flat cell index cell (-1 if not passable)."""
         if getattr(self, "_labels", None) is None:
-            from scipy.sparse.csgraph import connected_components
-            _, self._labels = connected_components(self.matrix, directed=False)
-        node = self.node_of[cell]
-        return int(self._labels[node]) if node >= 0 else -1
+            # the components of the graph are those of the passable cells, 8-connected
+            passable = (self.node_of >= 0).reshape(self.shape).astype(np.uint8)
+            self._labels = cv2.connectedComponents(passable, connectivity=8, ltype=cv2.CV_32S)[1].ravel()
+        return int(self._labels[cell]) if self.node_of[cell] >= 0 else -1
 
     def potential_toward(self, source_cell, target_cell, cost_estimate=None, guide=None):
         """Dijkstra potential from source_cell, settled only as far as target_cell needs.

@@ -72,11 +72,15 @@ acc_lim_theta and max_vel_theta / min_vel_theta with nav_core's deprecation warn
 (Noetic's node reads the first not at all and lets dynamic_reconfigure override the
 second).
 
-Everything is computed for all samples at once (``rollout``; the footprint outline of
-every simulated pose in one vectorized Bresenham pass; the wavefront a frontier at a
-time); ``generate_trajectory_reference`` and ``map_grid_reference`` are the literal
-per-trajectory loop and queue, kept as the test oracle (TrajectoryPlanner(...,
-reference=True) runs on them).
+Speed: the trajectories of all samples are simulated at once with numpy (``rollout``:
+velocity ramps and poses as cumulative sums, the footprint's vertex cells of every
+point); the checks then walk each trajectory point by point in a compiled kernel
+(numba, ``_first_failure``: the outline's Bresenham cells, stopping at the first point
+that fails, as generateTrajectory does), and the distance grids are a compiled
+breadth-first queue (``_wavefront``). ``generate_trajectory_reference``,
+``map_grid_reference``, ``footprint_cells_reference`` and ``densify_reference`` are the
+literal per-trajectory loops and queue, kept as the test oracle (TrajectoryPlanner(...,
+reference=True) runs on the first two).
 """
 import dataclasses
 import math
@@ -89,6 +93,7 @@ from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORM
 from .dwa import DWAResult, HeldPlan
 from .params import ParamError
 from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.jit import njit
 
 PRUNE_DIST = 1.0            # [m] prunePlan drops plan points until one this near the robot
 STOPPED_VEL = 1e-2          # [m/s, rad/s] TrajectoryPlannerROS: below this the robot counts as stopped
@@ -335,6 +340,67 @@ def line_cells_reference(x0, y0, x1, y1):
     return out
 
 
+def _vertex_cells(costmap, polygon, x, y, th):
+    """The footprint's vertex cells at many poses: (vx, vy) (M, K) int and on_map (M,)
+    (the centre and every vertex on the costmap; off it, the vertex cells are 0)."""
+    x, y, th = (np.asarray(v, dtype=np.float64).ravel() for v in (x, y, th))
+    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
+    px = x[:, None] + polygon[:, 0] * c - polygon[:, 1] * s      # (M, K)
+    py = y[:, None] + polygon[:, 0] * s + polygon[:, 1] * c
+    vx, vy, vin = world_to_cells(costmap, px, py)
+    _, _, cin = world_to_cells(costmap, x, y)
+    on_map = cin & vin.all(axis=1)
+    vx[~on_map], vy[~on_map] = 0, 0
+    return vx, vy, on_map
+
+
+@njit(cache=True, nogil=True)
+def _outline_cost(data, vx, vy):
+    """Highest cost on the closed outline through the vertex cells vx, vy (K,) of the
+    (H, W) uint8 grid data, its edges walked with Bresenham's iterator (ends included);
+    COLLIDES at the first lethal or unknown cell."""
+    k_n = vx.shape[0]
+    worst = 0
+    for k in range(k_n):
+        x0, y0 = vx[k], vy[k]
+        x1, y1 = vx[(k + 1) % k_n], vy[(k + 1) % k_n]
+        dx, dy = abs(x1 - x0), abs(y1 - y0)
+        sx = 1 if x1 >= x0 else -1
+        sy = 1 if y1 >= y0 else -1
+        xmajor = dx >= dy
+        den = dx if xmajor else dy
+        numadd = dy if xmajor else dx
+        num = den // 2
+        x, y = x0, y0
+        for _ in range(den + 1):
+            cost = int(data[y, x])
+            if cost == LETHAL_OBSTACLE or cost == NO_INFORMATION:
+                return COLLIDES
+            if cost > worst:
+                worst = cost
+            num += numadd
+            if num >= den:
+                num -= den
+                if xmajor:
+                    y += sy
+                else:
+                    x += sx
+            if xmajor:
+                x += sx
+            else:
+                y += sy
+    return float(worst)
+
+
+@njit(cache=True, nogil=True)
+def _outline_costs(data, vx, vy, on_map):
+    """(M,) _outline_cost of each pose's vertex cells (M, K); OFF_MAP where not on_map."""
+    out = np.empty(vx.shape[0])
+    for m in range(vx.shape[0]):
+        out[m] = _outline_cost(data, vx[m], vy[m]) if on_map[m] else OFF_MAP
+    return out
+
+
 def footprint_costs(costmap, polygon, x, y, th):
     """CostmapModel::footprintCost for many poses at once.
 
@@ -343,20 +409,8 @@ def footprint_costs(costmap, polygon, x, y, th):
     rasterized with Bresenham, closing edge included) is lethal or unknown, else the
     highest cost on the outline.
     """
-    x, y, th = (np.asarray(v, dtype=np.float64).ravel() for v in (x, y, th))
-    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
-    px = x[:, None] + polygon[:, 0] * c - polygon[:, 1] * s      # (M, K)
-    py = y[:, None] + polygon[:, 0] * s + polygon[:, 1] * c
-    vx, vy, vin = world_to_cells(costmap, px, py)
-    _, _, cin = world_to_cells(costmap, x, y)
-    on_map = cin & vin.all(axis=1)
-    vx[~on_map], vy[~on_map] = 0, 0   # off the map: OFF_MAP whatever its cells
-    # Lines between vertices on the map stay on it; a short line repeats its end cell.
-    xs, ys, _ = bresenham(vx, vy, np.roll(vx, -1, axis=1), np.roll(vy, -1, axis=1), repeat_end=True)
-    cells = costmap.data.ravel()[ys * costmap.size_x + xs].reshape(len(x), -1)   # (M, K x L)
-    blocked = ((cells == LETHAL_OBSTACLE) | (cells == NO_INFORMATION)).any(axis=1)
-    worst = cells.max(axis=1).astype(np.float64)
-    return np.where(~on_map, OFF_MAP, np.where(blocked, COLLIDES, worst))
+    vx, vy, on_map = _vertex_cells(costmap, polygon, x, y, th)
+    return _outline_costs(costmap.data, vx, vy, on_map)
 
 
 def footprint_cost_reference(costmap, polygon, x, y, th):
@@ -392,16 +446,57 @@ def footprint_cells(costmap, polygon, pose):
     xs, ys, valid = bresenham(vx, vy, np.roll(vx, -1), np.roll(vy, -1))
     xs, ys = xs[valid], ys[valid]
     # Fill each column between its lowest and highest outline cell (a convex footprint).
+    x0 = int(xs.min())
+    cols = xs - x0
+    lo = np.full(int(cols.max()) + 1, np.iinfo(np.int64).max)
+    hi = np.full(len(lo), np.iinfo(np.int64).min)
+    np.minimum.at(lo, cols, ys)
+    np.maximum.at(hi, cols, ys)
+    rows = np.arange(h)[:, None]
+    cx = np.arange(x0, x0 + len(lo))
+    on = (cx >= 0) & (cx < w)
+    mask[:, cx[on]] = (rows >= lo[on]) & (rows <= hi[on])
+    return mask
+
+
+def footprint_cells_reference(costmap, polygon, pose):
+    """footprint_cells column by column (test oracle)."""
+    h, w = costmap.data.shape
+    mask = np.zeros((h, w), dtype=bool)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    px = pose[0] + polygon[:, 0] * c - polygon[:, 1] * s
+    py = pose[1] + polygon[:, 0] * s + polygon[:, 1] * c
+    vx, vy, _ = world_to_cells(costmap, px, py)
+    xs, ys, valid = bresenham(vx, vy, np.roll(vx, -1), np.roll(vy, -1))
+    xs, ys = xs[valid], ys[valid]
     for cx in np.unique(xs):
         if 0 <= cx < w:
             col = ys[xs == cx]
-            mask[max(0, col.min()):min(h, col.max() + 1), cx] = True
+            lo, hi = max(0, col.min()), min(h, col.max() + 1)
+            if hi > lo:   # a column wholly below the costmap has no cell on it
+                mask[lo:hi, cx] = True
     return mask
 
 
 # -- 2. distance grids --------------------------------------------------------------------
 def densify(plan, resolution):
     """MapGrid::adjustPlanResolution: points added so that neighbours are at most resolution [m] apart."""
+    plan = np.asarray(plan, dtype=np.float64)
+    if len(plan) < 2:
+        return plan.copy()
+    a, step = plan[:-1], plan[1:] - plan[:-1]
+    steps = np.array([int(math.ceil(d / resolution)) if d > resolution else 1
+                      for d in map(math.hypot, step[:, 0].tolist(), step[:, 1].tolist())])
+    # Segment k contributes a + j (b - a) / steps for j = 0 .. steps - 1 (j = 0: a itself)
+    seg = np.repeat(np.arange(len(step)), steps)
+    j = (np.arange(len(seg)) - np.repeat(np.cumsum(steps) - steps, steps))[:, None]
+    pts = a[seg] + j * step[seg] / steps[seg][:, None]
+    pts[j[:, 0] == 0] = a[seg[j[:, 0] == 0]]
+    return np.vstack([pts, plan[-1:]])
+
+
+def densify_reference(plan, resolution):
+    """densify segment by segment (test oracle)."""
     plan = np.asarray(plan, dtype=np.float64)
     out = [plan[:1]]
     for a, b in zip(plan[:-1], plan[1:]):
@@ -436,45 +531,48 @@ def blocked_cells(costmap, within_robot):
     return ((d == LETHAL_OBSTACLE) | (d == INSCRIBED_INFLATED_OBSTACLE) | (d == NO_INFORMATION)) & ~within_robot
 
 
+@njit(cache=True, nogil=True)
+def _wavefront(blocked, tx, ty, obstacle):
+    """The breadth-first wave of map_grid over blocked (H, W) bool from the target cells
+    (tx, ty), with a flat array as its queue (each cell enters it at most once)."""
+    h, w = blocked.shape
+    dist = np.full((h, w), obstacle + 1.0)
+    marked = np.zeros((h, w), dtype=np.bool_)
+    queue = np.empty(h * w + tx.shape[0], dtype=np.int64)
+    head, tail = 0, 0
+    for k in range(tx.shape[0]):
+        dist[ty[k], tx[k]] = 0.0
+        marked[ty[k], tx[k]] = True
+        queue[tail] = ty[k] * w + tx[k]
+        tail += 1
+    while head < tail:
+        cx, cy = queue[head] % w, queue[head] // w
+        head += 1
+        d = dist[cy, cx] + 1.0
+        for j in range(4):
+            nx = cx - 1 if j == 0 else cx + 1 if j == 1 else cx
+            ny = cy - 1 if j == 2 else cy + 1 if j == 3 else cy
+            if nx < 0 or ny < 0 or nx >= w or ny >= h or marked[ny, nx]:
+                continue
+            marked[ny, nx] = True
+            if blocked[ny, nx]:
+                dist[ny, nx] = obstacle
+                continue
+            dist[ny, nx] = d
+            queue[tail] = ny * w + nx
+            tail += 1
+    return dist
+
+
 def map_grid(costmap, targets, within_robot):
-    """MapGrid::computeTargetDistance, a frontier at a time: (H, W) float distances [cells].
+    """MapGrid::computeTargetDistance: (H, W) float distances [cells].
 
     targets: (mx, my) arrays of cells at distance 0; a 4-connected breadth-first wave
     spreads from them over free cells; a blocked cell it touches gets obstacle_cost
     (H x W) and stops it; cells never touched get obstacle_cost + 1.
     """
-    h, w = costmap.data.shape
-    obstacle = float(h * w)
-    w2 = w + 2
-    # Padded by one marked cell on each side: neighbours need no bounds checks.
-    marked = np.ones((h + 2, w2), dtype=bool)
-    marked[1:-1, 1:-1] = False
-    marked = marked.ravel()
-    blocked = np.zeros((h + 2, w2), dtype=bool)
-    blocked[1:-1, 1:-1] = blocked_cells(costmap, within_robot)
-    blocked = blocked.ravel()
-    dist = np.full((h + 2) * w2, obstacle + 1.0)
-    mx, my = targets
-    if len(mx) == 0:
-        return dist.reshape(h + 2, w2)[1:-1, 1:-1].copy()
-    front = np.unique((np.asarray(my) + 1) * w2 + np.asarray(mx) + 1)
-    marked[front] = True
-    dist[front] = 0.0
-    level = 0.0
-    offsets = np.array([-1, 1, -w2, w2])
-    slot = np.zeros((h + 2) * w2, dtype=np.int64)   # scratch: drops repeated neighbours without a sort
-    while front.size:
-        level += 1.0
-        nb = (front[:, None] + offsets).ravel()
-        nb = nb[~marked[nb]]
-        slot[nb] = np.arange(nb.size)
-        nb = nb[slot[nb] == np.arange(nb.size)]
-        marked[nb] = True
-        hit = blocked[nb]
-        dist[nb[hit]] = obstacle
-        front = nb[~hit]
-        dist[front] = level
-    return dist.reshape(h + 2, w2)[1:-1, 1:-1].copy()
+    mx, my = (np.asarray(v, dtype=np.int64).ravel() for v in targets)
+    return _wavefront(blocked_cells(costmap, within_robot), mx, my, float(costmap.data.size))
 
 
 def map_grid_reference(costmap, targets, within_robot):
@@ -568,6 +666,31 @@ class Rollouts:
         return np.column_stack([self.x[i, :k], self.y[i, :k], self.th[i, :k]])
 
 
+@njit(cache=True, nogil=True)
+def _first_failure(data, n, on_map, vx, vy, no_way, centre):
+    """Each trajectory's points in order, as generateTrajectory checks them, until the
+    first that fails: (first (N,) index of that point, or n if none; fail (N,) COLLIDES
+    or NO_WAY; occ (N,) the highest max(outline cost, centre cell cost) before it).
+
+    on_map (N, S): the centre and the footprint's vertices on the costmap; vx, vy
+    (N, S, K) vertex cells; no_way (N, S): no clear way to the plan from the point."""
+    n_traj = n.shape[0]
+    first = n.copy()
+    fail = np.zeros(n_traj)
+    occ = np.zeros(n_traj)
+    for i in range(n_traj):
+        for j in range(n[i]):
+            fp = _outline_cost(data, vx[i, j], vy[i, j]) if on_map[i, j] else OFF_MAP
+            if fp < 0:
+                first[i], fail[i] = j, COLLIDES
+                break
+            if no_way[i, j]:
+                first[i], fail[i] = j, NO_WAY
+                break
+            occ[i] = max(occ[i], fp, centre[i, j])
+    return first, fail, occ
+
+
 def rollout(cfg, pose, vel, samples, costmap, grids, polygon, biases):
     """Simulate and score every sample at once (generateTrajectory for all of them).
 
@@ -593,9 +716,6 @@ def rollout(cfg, pose, vel, samples, costmap, grids, polygon, biases):
     mx, my, inside = world_to_cells(costmap, x, y)
     h, w = costmap.data.shape
     centre = costmap.data[np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)].astype(np.float64)
-    fp = np.zeros(x.shape)
-    fp[live] = footprint_costs(costmap, polygon, x[live], y[live], th[live])
-    collides = ~inside | (fp < 0)
     cx, cy = np.clip(mx, 0, w - 1), np.clip(my, 0, h - 1)
     path_d, goal_d = grids.path[cy, cx], grids.goal[cy, cx]
     heading = np.zeros(x.shape)
@@ -606,16 +726,18 @@ def rollout(cfg, pose, vel, samples, costmap, grids, polygon, biases):
         t = np.cumsum(np.concatenate([np.zeros((len(samples), 1)), np.repeat(dt, big_s - 1, axis=1)], axis=1),
                       axis=1)
         scored = live & (t >= cfg.heading_scoring_timestep) & (t < cfg.heading_scoring_timestep + dt)
-        for i, j in zip(*np.nonzero(scored & ~collides)):
-            heading[i, j] = heading_diff(costmap, grids.plan, mx[i, j], my[i, j], x[i, j], y[i, j], th[i, j])
     else:
         scored = live
     no_way = scored & ((path_d >= grids.obstacle_cost) | (goal_d >= grids.obstacle_cost))
-    bad = live & (collides | no_way)
-    first = np.where(bad.any(axis=1), bad.argmax(axis=1), big_s)
+    # The footprint outline at every point, each trajectory walked until its first failure
+    vert_x, vert_y, on_map = (np.zeros(x.shape + (len(polygon),), dtype=np.int64),
+                              np.zeros(x.shape + (len(polygon),), dtype=np.int64), np.zeros(x.shape, dtype=bool))
+    vert_x[live], vert_y[live], on_map[live] = _vertex_cells(costmap, polygon, x[live], y[live], th[live])
+    first, fail, occ = _first_failure(costmap.data, n, inside & on_map, vert_x, vert_y, no_way, centre)
     rows = np.arange(len(samples))
-    fail = np.where(collides[rows, np.minimum(first, big_s - 1)], COLLIDES, NO_WAY)
-    occ = np.where(live, np.maximum(fp, centre), 0.0).max(axis=1)
+    if cfg.heading_scoring:
+        for i, j in zip(*np.nonzero(scored & (first == n)[:, None])):
+            heading[i, j] = heading_diff(costmap, grids.plan, mx[i, j], my[i, j], x[i, j], y[i, j], th[i, j])
     if cfg.simple_attractor:
         last = n - 1
         gx, gy = grids.plan[-1]
@@ -632,7 +754,7 @@ def rollout(cfg, pose, vel, samples, costmap, grids, polygon, biases):
     cost = biases[0] * pd + biases[1] * gd + cfg.occdist_scale * occ
     if cfg.heading_scoring:
         cost = cost + HEADING_WEIGHT * hd
-    cost = np.where(first < big_s, fail, cost)
+    cost = np.where(first < n, fail, cost)
     return Rollouts(samples=samples, cost=cost, x=x, y=y, th=th, n=n)
 
 
@@ -737,6 +859,22 @@ def sign(v):
     return -1.0 if v < 0.0 else 1.0
 
 
+_WARM = []
+
+
+def warm_up():
+    """Compile the kernels (numba) on a tiny case once per process, so that a planner's
+    first control cycle does not pay the compilation (about 1 s without numba's cache)."""
+    if _WARM:
+        return
+    grid = np.zeros((3, 3), dtype=np.uint8)
+    cells = np.zeros((1, 1, 2), dtype=np.int64)
+    _wavefront(grid > 0, np.array([1]), np.array([1]), float(grid.size))
+    _first_failure(grid, np.array([1]), np.ones((1, 1), dtype=bool), cells, cells, np.zeros((1, 1), dtype=bool),
+                   np.zeros((1, 1)))
+    _outline_costs(grid, cells[0], cells[0], np.ones(1, dtype=bool))
+    _WARM.append(True)
+
 # -- the planner ----------------------------------------------------------------------------
 class TrajectoryPlanner(HeldPlan):
     """base_local_planner's TrajectoryPlannerROS without ROS (nav_core's BaseLocalPlanner).
@@ -755,6 +893,8 @@ class TrajectoryPlanner(HeldPlan):
         self.polygon = np.asarray(footprint.polygon, dtype=np.float64)
         self._rollout = rollout_reference if reference else rollout
         self._grid_fn = map_grid_reference if reference else map_grid
+        if not reference:
+            warm_up()
         self.warnings = []     # the real node's warnings about the parameters, for the caller to log
         self.ignored = []      # parameter names the planner does not know
         self.plan = None
