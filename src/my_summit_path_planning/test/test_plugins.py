@@ -238,3 +238,17 @@ def test_planner_notes_name_unused_and_deprecated_parameters(footprint):
     assert "~GlobalPlanner/no_such_knob is not a parameter of this planner; ignored" in pl.notes
     assert "~TrajectoryPlannerROS/no_such_knob is not a parameter of this planner; ignored" in pl.notes
     assert any("pdist_scale" in n for n in pl.notes if "ignored" not in n)
+
+
+def test_dwa_says_once_that_it_does_not_scale_the_footprint_with_speed(footprint):
+    """dwa_local_planner checks each trajectory with the footprint scaled up with its speed
+    (scaling_speed, max_scaling_factor: on by default); ours checks it unscaled, and says so
+    once, with the values, rather than dropping the parameters silently (use_dwa false too)."""
+    dwa = {"base_local_planner": "dwa_local_planner/DWAPlannerROS"}
+    pl = MoveBasePlugins(move_base_params({**dwa, "DWAPlannerROS": {"max_scaling_factor": 0.3, "use_dwa": False}}),
+                         footprint=footprint)
+    scaling = [n for n in pl.notes if "speed scaling" in n]
+    assert len(scaling) == 1 and "max_scaling_factor 0.3" in scaling[0] and "x1.3" in scaling[0]
+    assert any("use_dwa false is ignored" in n for n in pl.notes)
+    pl = MoveBasePlugins(move_base_params(dwa), footprint=footprint)
+    assert not any("use_dwa" in n for n in pl.notes) and any("x1.2" in n for n in pl.notes)

@@ -54,9 +54,22 @@ GLOBAL_PLANNERS.register("navfn/NavfnROS", lambda params, ctx, where: NavFn(navf
 GLOBAL_PLANNERS.register("global_planner/GlobalPlanner",
                          lambda params, ctx, where: GlobalPlanner.from_params(params, where))
 
-LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS",
-                        lambda params, ctx, where: DWAPlanner(dwa_config(params, where), ctx.footprint),
-                        limits=dwa_limits)
+def _dwa_planner(params, ctx, where):
+    """DWAPlanner from its namespace; .warnings names what dwa_local_planner does that it
+    does not (move_base logs them once)."""
+    cfg = dwa_config(params, where)
+    planner = DWAPlanner(cfg, ctx.footprint)
+    planner.warnings = [
+        f"~{where}: footprint speed scaling is not implemented: scaling_speed {cfg.scaling_speed} and "
+        f"max_scaling_factor {cfg.max_scaling_factor} are ignored (dwa_local_planner checks the footprint "
+        f"scaled up to x{1 + cfg.max_scaling_factor:g} at max_vel_trans); the footprint is checked at its size"]
+    if not cfg.use_dwa:
+        planner.warnings.append(f"~{where}/use_dwa false is ignored: this planner always samples the "
+                                f"dynamic window")
+    return planner
+
+
+LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS", _dwa_planner, limits=dwa_limits)
 LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS",
                         lambda params, ctx, where: TrajectoryPlanner.from_params(
                             params, ctx.footprint, where, controller_frequency=ctx.controller_frequency),
