@@ -63,7 +63,8 @@ is planned with APPROACH_DECEL x acc_lim_x; move_base's measured control latency
 
 Parameters (DWAConfig, the DWAPlannerROS namespace, Noetic names and defaults) carry
 their units there; scaling_speed, max_scaling_factor and use_dwa are accepted and not
-used (move_base says so once: plugins._dwa_planner) (this planner always samples the dynamic window).
+used (this planner always samples the dynamic window; move_base says so once, with the
+values: plugins._dwa_planner).
 """
 import collections
 import dataclasses
