@@ -39,6 +39,10 @@ def test_live_node_maps_the_first_minute_of_intel(tmp_path):
     (["/no/such/log.gz"], "/no/such/log.gz: no such file"),
     ([INTEL, "--rate", "0"], "--rate must be a finite number > 0"),
     ([INTEL, "--set", "particles"], "--set expects name=value"),
+    ([INTEL, "--node", "/no/such/slam_gmapping"], "--node /no/such/slam_gmapping: not an executable file"),
+    ([INTEL, "--node", INTEL], f"--node {INTEL}: not an executable file"),
+    ([INTEL, "--node-setup", "/opt/ros/noetic/setup.bash"], "--node-setup needs --node"),
+    ([INTEL, "--node", "/bin/true", "--node-setup", "/no/setup.bash"], "--node-setup /no/setup.bash: no such file"),
 ])
 def test_runner_bad_input_fails_with_the_reason(args, expect):
     proc = subprocess.run([sys.executable, RUNNER] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -70,6 +74,27 @@ def test_node_parameters_follow_the_evaluation_settings():
     scans.range_max = 30.0
     p = bench_slam_bag.node_params(scans, {"particles": 5})
     assert p["maxUrange"] == pytest.approx(29.99) and p["maxRange"] == pytest.approx(30.01) and p["particles"] == 5
+
+
+def test_another_node_runs_directly_in_the_environment_its_setup_file_leaves(tmp_path):
+    sys.path.insert(0, os.path.dirname(RUNNER))
+    import bench_slam_bag
+
+    ours = bench_slam_bag.node_command()
+    assert ours[0] == sys.executable and ours[1].endswith(os.path.join("nodes", "slam_gmapping"))
+    assert ours[-1] == "__name:=slam_gmapping"
+    assert bench_slam_bag.node_command("/ws/devel/lib/gmapping/slam_gmapping") == [
+        "/ws/devel/lib/gmapping/slam_gmapping", "__name:=slam_gmapping"]
+    setup = tmp_path / "setup.bash"
+    setup.write_text('echo sourcing\nexport LD_LIBRARY_PATH="/ws/devel/lib:$LD_LIBRARY_PATH"\n'
+                     'export MULTI="a\nb=c"\nunset DROPPED\n')
+    env = bench_slam_bag.sourced_env(str(setup), {"PATH": os.environ["PATH"], "LD_LIBRARY_PATH": "/opt/lib",
+                                                  "DROPPED": "1", "ROS_MASTER_URI": "http://127.0.0.1:1"})
+    assert env["LD_LIBRARY_PATH"] == "/ws/devel/lib:/opt/lib" and env["MULTI"] == "a\nb=c"
+    assert env["ROS_MASTER_URI"] == "http://127.0.0.1:1" and "DROPPED" not in env
+    setup.write_text("return 3\n")
+    with pytest.raises(ValueError, match=f"--node-setup {setup}: sourcing it failed \\(exit status 3\\)"):
+        bench_slam_bag.sourced_env(str(setup), {"PATH": os.environ["PATH"]})
 
 
 def test_offline_replay_of_a_log_feeds_the_filter_what_the_node_gets_from_its_bag(tmp_path):
