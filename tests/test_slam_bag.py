@@ -97,6 +97,28 @@ def test_another_node_runs_directly_in_the_environment_its_setup_file_leaves(tmp
         bench_slam_bag.sourced_env(str(setup), {"PATH": os.environ["PATH"]})
 
 
+def test_another_nodes_updates_are_counted_from_its_log_or_not_known(tmp_path):
+    """The real gmapping prints "update frame N" at each filter update (N: scans received);
+    its stderr interleaves (the second update's line follows a tf warning)."""
+    sys.path.insert(0, os.path.dirname(RUNNER))
+    import bench_slam_bag
+
+    log = tmp_path / "node.log"
+    log.write_text("Registering First Scan\nupdate frame 0\nupdate ld=0 ad=0\nLaser Pose= 1 2 0.5\n"
+                   "Warning: TF_REPEATED_DATA ignoring data\nWarning: update frame 3\nupdate ld=0.21 ad=0\n"
+                   "neff= 29.5\nupdate frame 4\n")
+    assert bench_slam_bag.node_log_updates(str(log)) == 3
+    log.write_text("[ INFO] slam_gmapping started\n")
+    assert bench_slam_bag.node_log_updates(str(log)) is None
+    run = dict(ate_online_m=0.4, ate_odom_m=3.7, cpu_s=50.0, peak_rss_mb=120.0, expected_updates=440)
+    med, worst = bench_slam_bag.summarize([dict(run, updates=None, cpu_ms_per_update=None)] * 2)
+    assert med["updates"] is None and worst["cpu_ms_per_update"] is None and med["ate_online_m"] == 0.4
+    med, worst = bench_slam_bag.summarize([dict(run, updates=430, cpu_ms_per_update=116.0),
+                                           dict(run, updates=420, cpu_ms_per_update=119.0)])
+    assert (med["updates"], worst["updates"], worst["cpu_ms_per_update"]) == (425, 420, 119.0)
+    assert bench_slam_bag.known(None, "9.1f") == "      n/a" and bench_slam_bag.known(1.5, "9.1f") == "      1.5"
+
+
 def test_offline_replay_of_a_log_feeds_the_filter_what_the_node_gets_from_its_bag(tmp_path):
     """slam_bag_offline.py on a CARMEN log gives the filter the scans, odometry and beam
     angles the node gets from the log's bag, bit for bit: the filter is chaotic, and on

@@ -26,9 +26,11 @@ real gmapping's, as an oracle on the same bags and scoring), with the same param
 is started directly (its pid is the one /proc is read for) as node `slam_gmapping`, in the
 environment a bash has after sourcing --node-setup (e.g. its catkin workspace's
 devel/setup.bash), when given. The real node ignores `~seed`: its filter is unseeded, and
-only the bag's odometry drift follows the seed. The updates count applies to it as to
-ours (both broadcast map -> odom every transform_publish_period, and it changes only at an
-update; two updates within one period would count as one).
+only the bag's odometry drift follows the seed. Its updates are counted from its log, the
+lines GMapping's GridSlamProcessor prints at each one ("update frame N"), "n/a" when there
+are none: counted from map -> odom, two updates within one transform_publish_period count
+as one, as they do when the real node works off a backlog of scans after its map update
+(which runs in its scan callback).
 
 Every process started here is stopped, also on failure; a node crash, bad input or a
 timeout ends with a message and a non-zero exit status.
@@ -45,6 +47,7 @@ import argparse
 import json
 import math
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -146,6 +149,16 @@ def sourced_env(setup, base):
         raise ValueError(f"--node-setup {setup}: sourcing it failed (exit status {proc.returncode}): "
                          f"{proc.stderr.decode(errors='replace')[-500:]}")
     return dict(item.split("=", 1) for item in proc.stdout.decode(errors="replace").split("\0") if "=" in item)
+
+
+GMAPPING_UPDATE = re.compile(r"update frame \d+")  # GridSlamProcessor::processScan, once per update
+
+
+def node_log_updates(path):
+    """Filter updates a node reports in its log (GMAPPING_UPDATE, anywhere in a line: its
+    stdout and stderr interleave); None when there are none."""
+    with open(path, errors="replace") as f:
+        return len(GMAPPING_UPDATE.findall(f.read())) or None
 
 
 def check_node_args(node, setup):
@@ -308,7 +321,10 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
             pass
     m2o = m2o[np.argsort(m2o[:, 0], kind="stable")]
     ate, traj = online_eval.online_ate(scans.stamps, scans.odometry, scans.reference, m2o[:, 0], m2o[:, 1:])
-    updates = online_eval.count_updates(m2o[:, 1:]) if maps else 0
+    if node_cmd is None:
+        updates = online_eval.count_updates(m2o[:, 1:]) if maps else 0
+    else:
+        updates = node_log_updates(logs["node"])
     expected = online_eval.expected_updates(scans.odometry, params["linearUpdate"], params["angularUpdate"])
     result = dict(
         bag=bag, node=node_command(node_cmd)[-2], seed=seed, rate=rate, scans=len(scans.stamps), log_s=duration,
@@ -337,13 +353,22 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
 # ----------------------------------------------------------------- several seeds
 def summarize(results):
     """Median and worst of the per-seed figures."""
-    keys_high_bad = ("ate_online_m", "ate_odom_m", "cpu_s", "cpu_ms_per_update", "peak_rss_mb")
+    keys_high_bad = ("ate_online_m", "ate_odom_m", "cpu_s", "peak_rss_mb")
     med = {k: statistics.median(r[k] for r in results) for k in keys_high_bad}
     worst = {k: max(r[k] for r in results) for k in keys_high_bad}
-    med["updates"] = statistics.median(r["updates"] for r in results)
-    worst["updates"] = min(r["updates"] for r in results)
+    for k in ("cpu_ms_per_update", "updates"):   # None: not known (another node's)
+        known = [r[k] for r in results if r[k] is not None]
+        med[k] = statistics.median(known) if known else None
+        worst[k] = (max if k == "cpu_ms_per_update" else min)(known) if known else None
     med["expected_updates"] = statistics.median(r["expected_updates"] for r in results)
     return med, worst
+
+
+def known(value, spec):
+    """value formatted with spec, or "n/a" (as wide) when it is None."""
+    if value is not None:
+        return format(value, spec)
+    return "n/a".rjust(int(re.match(r"\d*", spec).group() or 0))
 
 
 def make_bag(log, seed, tmp):
@@ -436,14 +461,13 @@ def run_seeds(args, overrides, out):
                 return 1
             r = json.loads(lines[-1][len("RESULT "):])
             results.append(r)
-            ms = r["cpu_ms_per_update"]
             print(f"{seed:4d} {r['ate_online_m']:10.3f} {r['ate_odom_m']:9.3f} {r['cpu_s']:7.1f} "
-                  f"{ms if ms is not None else float('nan'):9.1f} {r['updates']:5d}/{r['expected_updates']:<5d} "
+                  f"{known(r['cpu_ms_per_update'], '9.1f')} {known(r['updates'], '5d')}/{r['expected_updates']:<5d} "
                   f"{r['peak_rss_mb']:7.0f} {r['play_wall_s']:7.0f}", flush=True)
     med, worst = summarize(results)
     print(f"median ATE online {med['ate_online_m']:.3f} m (worst {worst['ate_online_m']:.3f}), odometry "
-          f"{med['ate_odom_m']:.3f} m; CPU {med['cpu_s']:.1f} s, {med['cpu_ms_per_update']:.1f} ms per update "
-          f"(worst {worst['cpu_ms_per_update']:.1f}); peak RSS {med['peak_rss_mb']:.0f} MB; maps in {out}")
+          f"{med['ate_odom_m']:.3f} m; CPU {med['cpu_s']:.1f} s, {known(med['cpu_ms_per_update'], '.1f')} ms per "
+          f"update (worst {known(worst['cpu_ms_per_update'], '.1f')}); peak RSS {med['peak_rss_mb']:.0f} MB; maps in {out}")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(dict(log=os.path.abspath(args.log), node=node_command(args.node)[-2], rate=args.rate,
