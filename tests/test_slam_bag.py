@@ -39,6 +39,10 @@ def test_live_node_maps_the_first_minute_of_intel(tmp_path):
     (["/no/such/log.gz"], "/no/such/log.gz: no such file"),
     ([INTEL, "--rate", "0"], "--rate must be a finite number > 0"),
     ([INTEL, "--set", "particles"], "--set expects name=value"),
+    ([INTEL, "--node", "/no/such/slam_gmapping"], "--node /no/such/slam_gmapping: not an executable file"),
+    ([INTEL, "--node", INTEL], f"--node {INTEL}: not an executable file"),
+    ([INTEL, "--node-setup", "/opt/ros/noetic/setup.bash"], "--node-setup needs --node"),
+    ([INTEL, "--node", "/bin/true", "--node-setup", "/no/setup.bash"], "--node-setup /no/setup.bash: no such file"),
 ])
 def test_runner_bad_input_fails_with_the_reason(args, expect):
     proc = subprocess.run([sys.executable, RUNNER] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -70,6 +74,49 @@ def test_node_parameters_follow_the_evaluation_settings():
     scans.range_max = 30.0
     p = bench_slam_bag.node_params(scans, {"particles": 5})
     assert p["maxUrange"] == pytest.approx(29.99) and p["maxRange"] == pytest.approx(30.01) and p["particles"] == 5
+
+
+def test_another_node_runs_directly_in_the_environment_its_setup_file_leaves(tmp_path):
+    sys.path.insert(0, os.path.dirname(RUNNER))
+    import bench_slam_bag
+
+    ours = bench_slam_bag.node_command()
+    assert ours[0] == sys.executable and ours[1].endswith(os.path.join("nodes", "slam_gmapping"))
+    assert ours[-1] == "__name:=slam_gmapping"
+    assert bench_slam_bag.node_command("/ws/devel/lib/gmapping/slam_gmapping") == [
+        "/ws/devel/lib/gmapping/slam_gmapping", "__name:=slam_gmapping"]
+    setup = tmp_path / "setup.bash"
+    setup.write_text('echo sourcing\nexport LD_LIBRARY_PATH="/ws/devel/lib:$LD_LIBRARY_PATH"\n'
+                     'export MULTI="a\nb=c"\nunset DROPPED\n')
+    env = bench_slam_bag.sourced_env(str(setup), {"PATH": os.environ["PATH"], "LD_LIBRARY_PATH": "/opt/lib",
+                                                  "DROPPED": "1", "ROS_MASTER_URI": "http://127.0.0.1:1"})
+    assert env["LD_LIBRARY_PATH"] == "/ws/devel/lib:/opt/lib" and env["MULTI"] == "a\nb=c"
+    assert env["ROS_MASTER_URI"] == "http://127.0.0.1:1" and "DROPPED" not in env
+    setup.write_text("return 3\n")
+    with pytest.raises(ValueError, match=f"--node-setup {setup}: sourcing it failed \\(exit status 3\\)"):
+        bench_slam_bag.sourced_env(str(setup), {"PATH": os.environ["PATH"]})
+
+
+def test_another_nodes_updates_are_counted_from_its_log_or_not_known(tmp_path):
+    """The real gmapping prints "update frame N" at each filter update (N: scans received);
+    its stderr interleaves (the second update's line follows a tf warning)."""
+    sys.path.insert(0, os.path.dirname(RUNNER))
+    import bench_slam_bag
+
+    log = tmp_path / "node.log"
+    log.write_text("Registering First Scan\nupdate frame 0\nupdate ld=0 ad=0\nLaser Pose= 1 2 0.5\n"
+                   "Warning: TF_REPEATED_DATA ignoring data\nWarning: update frame 3\nupdate ld=0.21 ad=0\n"
+                   "neff= 29.5\nupdate frame 4\n")
+    assert bench_slam_bag.node_log_updates(str(log)) == 3
+    log.write_text("[ INFO] slam_gmapping started\n")
+    assert bench_slam_bag.node_log_updates(str(log)) is None
+    run = dict(ate_online_m=0.4, ate_odom_m=3.7, cpu_s=50.0, peak_rss_mb=120.0, expected_updates=440)
+    med, worst = bench_slam_bag.summarize([dict(run, updates=None, cpu_ms_per_update=None)] * 2)
+    assert med["updates"] is None and worst["cpu_ms_per_update"] is None and med["ate_online_m"] == 0.4
+    med, worst = bench_slam_bag.summarize([dict(run, updates=430, cpu_ms_per_update=116.0),
+                                           dict(run, updates=420, cpu_ms_per_update=119.0)])
+    assert (med["updates"], worst["updates"], worst["cpu_ms_per_update"]) == (425, 420, 119.0)
+    assert bench_slam_bag.known(None, "9.1f") == "      n/a" and bench_slam_bag.known(1.5, "9.1f") == "      1.5"
 
 
 def test_offline_replay_of_a_log_feeds_the_filter_what_the_node_gets_from_its_bag(tmp_path):

@@ -19,18 +19,35 @@ from /tf, the last /map. Reported per seed:
   - filter updates done (counted from the map -> odom broadcasts) and expected (gmapping's
     linearUpdate / angularUpdate gate on the odometry), a PNG of the final map.
 With several seeds (each: drift seed + ODOM_SEED_OFFSET, filter seed) the median and worst
-are reported. Every process started here is stopped, also on failure; a node crash, bad
-input or a timeout ends with a message and a non-zero exit status.
+are reported.
+
+--node EXECUTABLE runs another slam_gmapping-compatible executable in place of ours (e.g. the
+real gmapping's, as an oracle on the same bags and scoring), with the same parameters; it
+is started directly (its pid is the one /proc is read for) as node `slam_gmapping`, in the
+environment a bash has after sourcing --node-setup (e.g. its catkin workspace's
+devel/setup.bash), when given. The real node ignores `~seed`: its filter is unseeded, and
+only the bag's odometry drift follows the seed. Its updates are counted from its log, the
+lines GMapping's GridSlamProcessor prints at each one ("update frame N"), "n/a" when there
+are none: counted from map -> odom, two updates within one transform_publish_period count
+as one, as they do when the real node works off a backlog of scans after its map update
+(which runs in its scan callback).
+
+Every process started here is stopped, also on failure; a node crash, bad input or a
+timeout ends with a message and a non-zero exit status.
 
 Usage: bench_slam_bag.py LOG [--seeds 1 2 3] [--rate 0.5] [--json PATH] [--out DIR]
                              [--set name=value ...] [--duration S]
+                             [--node EXECUTABLE [--node-setup SETUP_BASH]]
   LOG: a CARMEN log (.log / .log.gz) or a bag written by carmen_to_bag.py.
   e.g. bench_slam_bag.py data/carmen/intel-corrected.log.gz --seeds 1 2 --rate 4
+       bench_slam_bag.py data/carmen/aces-corrected.log.gz --rate 4 --out output/slam_bag_real \
+           --node /tmp/peers_ws/devel/lib/gmapping/slam_gmapping --node-setup /tmp/peers_ws/devel/setup.bash
 """
 import argparse
 import json
 import math
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -117,6 +134,43 @@ def parse_set(items):
     return out
 
 
+# ----------------------------------------------------------------- the node under test
+def node_command(node=None):
+    """Command line of the node under test: ours (nodes/slam_gmapping, run by this Python)
+    or `node`, another slam_gmapping-compatible executable, run directly."""
+    return ([sys.executable, NODE] if node is None else [node]) + [f"__name:={NODE_NAME}"]
+
+
+def sourced_env(setup, base):
+    """The environment (dict) a bash started with `base` has after sourcing `setup`."""
+    proc = subprocess.run(["bash", "-c", 'source "$0" >&2 && env -0', setup], env=base,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    if proc.returncode != 0:
+        raise ValueError(f"--node-setup {setup}: sourcing it failed (exit status {proc.returncode}): "
+                         f"{proc.stderr.decode(errors='replace')[-500:]}")
+    return dict(item.split("=", 1) for item in proc.stdout.decode(errors="replace").split("\0") if "=" in item)
+
+
+GMAPPING_UPDATE = re.compile(r"update frame \d+")  # GridSlamProcessor::processScan, once per update
+
+
+def node_log_updates(path):
+    """Filter updates a node reports in its log (GMAPPING_UPDATE, anywhere in a line: its
+    stdout and stderr interleave); None when there are none."""
+    with open(path, errors="replace") as f:
+        return len(GMAPPING_UPDATE.findall(f.read())) or None
+
+
+def check_node_args(node, setup):
+    """ValueError naming the option when --node / --node-setup cannot be used."""
+    if setup is not None and node is None:
+        raise ValueError("--node-setup needs --node")
+    if node is not None and not (os.path.isfile(node) and os.access(node, os.X_OK)):
+        raise ValueError(f"--node {node}: not an executable file")
+    if setup is not None and not os.path.isfile(setup):
+        raise ValueError(f"--node-setup {setup}: no such file")
+
+
 # ----------------------------------------------------------------- one run (child process)
 class Recorder:
     """map -> odom from /tf, the last /map, and the reference poses seen (so that rosbag
@@ -176,8 +230,9 @@ def wait_for(pred, timeout, what, alive=()):
         time.sleep(0.05)
 
 
-def run_once(bag, seed, rate, overrides, out_dir):
-    """Play `bag` through slam_gmapping once; returns the result dict (see module docstring)."""
+def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None):
+    """Play `bag` through slam_gmapping (ours, or node_cmd in the environment node_setup
+    leaves) once; returns the result dict (see module docstring)."""
     from roslaunch_session import free_port, stop_process_tree
     from my_summit_mapping import carmen_bag, online_eval
 
@@ -189,9 +244,10 @@ def run_once(bag, seed, rate, overrides, out_dir):
     logs = {k: os.path.join(out_dir, f"slam_bag_seed{seed}_{k}.log") for k in ("roscore", "node", "play")}
     procs = []
 
-    def start(name, args):
+    def start(name, args, child_env=None):
+        child_env = dict(child_env or env, ROS_MASTER_URI=env["ROS_MASTER_URI"])
         with open(logs[name], "w") as log:
-            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+            p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=child_env, start_new_session=True)
         procs.append(p)
         return p
 
@@ -212,7 +268,8 @@ def run_once(bag, seed, rate, overrides, out_dir):
         for k, v in params.items():
             master.setParam(f"/{NODE_NAME}/{k}", v)
         master.setParam(f"/{NODE_NAME}/seed", int(seed))
-        node = start("node", [sys.executable, NODE, f"__name:={NODE_NAME}"])
+        node = start("node", node_command(node_cmd),
+                     sourced_env(node_setup, env) if node_setup else None)
         alive = [("roscore", core, logs["roscore"]), (NODE_NAME, node, logs["node"])]
         rospy.init_node("bench_slam_bag", anonymous=True, disable_signals=True)
         rec = Recorder()
@@ -264,10 +321,14 @@ def run_once(bag, seed, rate, overrides, out_dir):
             pass
     m2o = m2o[np.argsort(m2o[:, 0], kind="stable")]
     ate, traj = online_eval.online_ate(scans.stamps, scans.odometry, scans.reference, m2o[:, 0], m2o[:, 1:])
-    updates = online_eval.count_updates(m2o[:, 1:]) if maps else 0
+    if node_cmd is None:
+        updates = online_eval.count_updates(m2o[:, 1:]) if maps else 0
+    else:
+        updates = node_log_updates(logs["node"])
     expected = online_eval.expected_updates(scans.odometry, params["linearUpdate"], params["angularUpdate"])
     result = dict(
-        bag=bag, seed=seed, rate=rate, scans=len(scans.stamps), log_s=duration, play_wall_s=play_wall,
+        bag=bag, node=node_command(node_cmd)[-2], seed=seed, rate=rate, scans=len(scans.stamps), log_s=duration,
+        play_wall_s=play_wall,
         ate_online_m=ate, ate_odom_m=float(online_eval.metrics.ate_rmse(scans.odometry, scans.reference)),
         cpu_s=cpu, updates=updates, expected_updates=expected,
         cpu_ms_per_update=1000.0 * cpu / updates if updates else None,
@@ -292,13 +353,22 @@ def run_once(bag, seed, rate, overrides, out_dir):
 # ----------------------------------------------------------------- several seeds
 def summarize(results):
     """Median and worst of the per-seed figures."""
-    keys_high_bad = ("ate_online_m", "ate_odom_m", "cpu_s", "cpu_ms_per_update", "peak_rss_mb")
+    keys_high_bad = ("ate_online_m", "ate_odom_m", "cpu_s", "peak_rss_mb")
     med = {k: statistics.median(r[k] for r in results) for k in keys_high_bad}
     worst = {k: max(r[k] for r in results) for k in keys_high_bad}
-    med["updates"] = statistics.median(r["updates"] for r in results)
-    worst["updates"] = min(r["updates"] for r in results)
+    for k in ("cpu_ms_per_update", "updates"):   # None: not known (another node's)
+        known = [r[k] for r in results if r[k] is not None]
+        med[k] = statistics.median(known) if known else None
+        worst[k] = (max if k == "cpu_ms_per_update" else min)(known) if known else None
     med["expected_updates"] = statistics.median(r["expected_updates"] for r in results)
     return med, worst
+
+
+def known(value, spec):
+    """value formatted with spec, or "n/a" (as wide) when it is None."""
+    if value is not None:
+        return format(value, spec)
+    return "n/a".rjust(int(re.match(r"\d*", spec).group() or 0))
 
 
 def make_bag(log, seed, tmp):
@@ -336,6 +406,10 @@ def main(argv=None):
     parser.add_argument("--json", help="write the results as JSON to this path")
     parser.add_argument("--out", help="directory for the map PNGs and the logs (default output/slam_bag)")
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="override a node parameter")
+    parser.add_argument("--node", metavar="EXECUTABLE",
+                        help="run this slam_gmapping-compatible executable (e.g. the real gmapping's) instead of ours")
+    parser.add_argument("--node-setup", metavar="SETUP_BASH",
+                        help="source this file (e.g. a catkin devel/setup.bash) for --node's environment")
     parser.add_argument("--child-seed", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     out = args.out or os.path.join(WS, "output", "slam_bag")
@@ -345,13 +419,14 @@ def main(argv=None):
             raise ValueError(f"--rate must be a finite number > 0, got {args.rate}")
         if not os.path.exists(args.log):
             raise FileNotFoundError(f"{args.log}: no such file")
+        check_node_args(args.node, args.node_setup)
     except (ValueError, OSError) as e:
         print(f"bench_slam_bag: error: {e}", file=sys.stderr)
         return 2
     os.makedirs(out, exist_ok=True)
     if args.child_seed is not None:   # one run, in its own process (rospy initializes once per process)
         try:
-            result = run_once(args.log, args.child_seed, args.rate, overrides, out)
+            result = run_once(args.log, args.child_seed, args.rate, overrides, out, args.node, args.node_setup)
         except (RuntimeError, ValueError, OSError) as e:
             print(f"bench_slam_bag: error: seed {args.child_seed}: {e}", flush=True)
             return 1
@@ -362,7 +437,7 @@ def main(argv=None):
 
 def run_seeds(args, overrides, out):
     results = []
-    print(f"{os.path.basename(args.log)}, rosbag play rate {args.rate:g}")
+    print(f"{os.path.basename(args.log)}, rosbag play rate {args.rate:g}, node {node_command(args.node)[-2]}")
     print(f"{'seed':>4} {'ATE online':>10} {'ATE odom':>9} {'CPU s':>7} {'ms/update':>9} {'updates':>11} "
           f"{'RSS MB':>7} {'wall s':>7}", flush=True)
     with tempfile.TemporaryDirectory(prefix="slam_bag_") as tmp:
@@ -375,7 +450,9 @@ def run_seeds(args, overrides, out):
                 print(f"bench_slam_bag: error: {e}", file=sys.stderr)
                 return 2
             cmd = [sys.executable, os.path.abspath(__file__), bag, "--child-seed", str(seed), "--rate", str(args.rate),
-                   "--out", out] + (["--set"] + args.set if args.set else [])
+                   "--out", out] + (["--set"] + args.set if args.set else []) \
+                + (["--node", os.path.abspath(args.node)] if args.node else []) \
+                + (["--node-setup", os.path.abspath(args.node_setup)] if args.node_setup else [])
             proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
             lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
             if proc.returncode != 0 or not lines:
@@ -384,18 +461,18 @@ def run_seeds(args, overrides, out):
                 return 1
             r = json.loads(lines[-1][len("RESULT "):])
             results.append(r)
-            ms = r["cpu_ms_per_update"]
             print(f"{seed:4d} {r['ate_online_m']:10.3f} {r['ate_odom_m']:9.3f} {r['cpu_s']:7.1f} "
-                  f"{ms if ms is not None else float('nan'):9.1f} {r['updates']:5d}/{r['expected_updates']:<5d} "
+                  f"{known(r['cpu_ms_per_update'], '9.1f')} {known(r['updates'], '5d')}/{r['expected_updates']:<5d} "
                   f"{r['peak_rss_mb']:7.0f} {r['play_wall_s']:7.0f}", flush=True)
     med, worst = summarize(results)
     print(f"median ATE online {med['ate_online_m']:.3f} m (worst {worst['ate_online_m']:.3f}), odometry "
-          f"{med['ate_odom_m']:.3f} m; CPU {med['cpu_s']:.1f} s, {med['cpu_ms_per_update']:.1f} ms per update "
-          f"(worst {worst['cpu_ms_per_update']:.1f}); peak RSS {med['peak_rss_mb']:.0f} MB; maps in {out}")
+          f"{med['ate_odom_m']:.3f} m; CPU {med['cpu_s']:.1f} s, {known(med['cpu_ms_per_update'], '.1f')} ms per "
+          f"update (worst {known(worst['cpu_ms_per_update'], '.1f')}); peak RSS {med['peak_rss_mb']:.0f} MB; maps in {out}")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(dict(log=os.path.abspath(args.log), rate=args.rate, seeds=args.seeds, runs=results,
-                           median=med, worst=worst, duration=args.duration), f, indent=2)
+            json.dump(dict(log=os.path.abspath(args.log), node=node_command(args.node)[-2], rate=args.rate,
+                           seeds=args.seeds, runs=results, median=med, worst=worst, duration=args.duration),
+                      f, indent=2)
     return 0
 
 
