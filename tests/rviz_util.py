@@ -179,3 +179,29 @@ def wait_param(port, name, timeout=20.0, procs=()):
             pass
         time.sleep(0.25)
     return False
+
+
+def wait_sim_time(env, seconds, timeout=60.0, procs=()):
+    """Wait until /clock (on env's master) has reached `seconds` of simulated time: a
+    loaded machine starts the simulator late and runs it slow, so a fixed wall-clock wait
+    can end before it has published anything. -> the last sim time seen [s] (< seconds
+    on timeout). Fails at once if one of procs has exited."""
+    deadline, t = time.time() + timeout, -1.0
+    while time.time() < deadline:
+        for p in procs:
+            assert p.poll() is None, "process %s exited early (rc %s)" % (p.args, p.returncode)
+        try:
+            out = subprocess.run(["rostopic", "echo", "-n", "1", "/clock"], env=env, capture_output=True,
+                                 text=True, timeout=max(1.0, min(10.0, deadline - time.time()))).stdout
+        except subprocess.TimeoutExpired:
+            continue
+        fields = dict(line.strip().split(":", 1) for line in out.splitlines() if ":" in line)
+        try:
+            t = int(fields["secs"]) + int(fields["nsecs"]) * 1e-9
+        except (KeyError, ValueError):
+            time.sleep(0.25)
+            continue
+        if t >= seconds:
+            return t
+        time.sleep(0.25)
+    return t

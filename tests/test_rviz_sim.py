@@ -1,7 +1,7 @@
 """rviz really shows the simulated robot: sim.launch gui:=true under Xvfb, one screenshot.
 
 Starts Xvfb on a free display, `roslaunch -p PORT summit_xl_sim sim.launch gui:=true` on a
-free port (its own master), waits ~8 s of wall time while the simulator runs, grabs the
+free port (its own master), waits until the simulator has run 3 s (and rviz 2 s more), grabs the
 screen with ImageMagick's `import -window root` and checks the pixels of rviz's render
 panel (src/summit_xl_sim/rviz/sim.rviz: background 48;48;48, laser points flat green
 0;255;0, top-down view following base_footprint at 40 px/m, so the robot sits in the
@@ -27,17 +27,20 @@ import cv2  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from rviz_util import (BACKGROUND, SCREEN, stop_process_tree, need, free_port,  # noqa: E402
-                       render_area, ros_env, screenshot, spawn, xvfb)  # noqa: F401
+                       render_area, ros_env, screenshot, spawn, wait_sim_time, xvfb)  # noqa: F401
 
 pytestmark = pytest.mark.integration
 
-SETTLE_S = 8.0            # wall seconds between launch and screenshot
+SIM_SETTLE_S = 3.0        # [s] of simulated time before the screenshot (scans, tf, odometry) ...
+RENDER_S = 2.0            # ... and then [s] of wall time for rviz to draw them
+SIM_TIMEOUT_S = 90.0      # [s] wall: the simulator must have got that far by then
 
 
 # ----------------------------------------------------------------------------- helpers
 def run_sim_and_grab(spawn, display, tmp_path, name, extra_args=()):
-    """sim.launch gui:=true, wait SETTLE_S, screenshot, stop the launch. -> RGB image."""
-    need("roslaunch", "rviz")
+    """sim.launch gui:=true, wait until the simulator has run SIM_SETTLE_S and rviz has
+    had RENDER_S to draw, screenshot, stop the launch. -> RGB image."""
+    need("roslaunch", "rviz", "rostopic")
     port = free_port()
     env = ros_env(display, port, tmp_path)
     log = open(tmp_path / ("%s_launch.log" % name), "wb")
@@ -45,7 +48,10 @@ def run_sim_and_grab(spawn, display, tmp_path, name, extra_args=()):
                     "gui:=true", "speed:=1"] + list(extra_args),
                    env=env, stdout=log, stderr=subprocess.STDOUT)
     try:
-        deadline = time.time() + SETTLE_S
+        t = wait_sim_time(env, SIM_SETTLE_S, SIM_TIMEOUT_S, [launch])
+        assert t >= SIM_SETTLE_S, "the simulator reached only %.2f s of simulated time in %.0f s, see %s" % (
+            t, SIM_TIMEOUT_S, log.name)
+        deadline = time.time() + RENDER_S
         while time.time() < deadline:
             assert launch.poll() is None, "roslaunch exited early, see %s" % log.name
             time.sleep(0.25)
