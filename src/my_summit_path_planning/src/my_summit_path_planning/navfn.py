@@ -13,10 +13,10 @@ The algorithm, in the order it runs:
    the goal). We run SciPy's compiled ``scipy.sparse.csgraph.dijkstra`` on an
    8-connected grid graph, its CSR matrix written in one compiled pass over the cells
    (numba; ``grid_graph_matrix_reference`` builds it through SciPy's COO, the test
-   oracle), edge weight = mean of the two cell costs x step length [cells]. (navfn itself propagates a 4-connected wavefront with a
-   quadratic interpolation; the 8-connected graph gives a comparably isotropic
-   potential, and the slow pure-Python ``dijkstra_reference`` on the same graph is the
-   test oracle.)
+   oracle), edge weight = mean of the two cell costs x step length [cells]. (navfn
+   itself propagates a 4-connected wavefront with a quadratic interpolation; the
+   8-connected graph gives a comparably isotropic potential, and the slow pure-Python
+   ``dijkstra_reference`` on the same graph is the test oracle.)
    Bounded like A*: only the cells a path to the goal can need are settled
    (GridGraph.potential_toward: edge weights reduced by a consistent octile heuristic,
    lifted by a coarse-grid cost-to-goal guide, and a distance limit from a coarse-grid
@@ -192,6 +192,7 @@ def grid_graph_matrix_reference(cell_cost):
         wts += [wt, wt]
     n = cells.size
     return sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
 
 class GridGraph:
     """The 8-connected graph of the passable cells of a cost grid, as a SciPy CSR matrix.

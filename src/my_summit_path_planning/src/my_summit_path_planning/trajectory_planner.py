@@ -289,11 +289,10 @@ def world_to_cells(costmap, x, y):
     return mx, my, inside
 
 
-def bresenham(x0, y0, x1, y1, repeat_end=False):
+def bresenham(x0, y0, x1, y1):
     """Cells of Bresenham lines from (x0, y0) to (x1, y1), ends included (base_local_planner's
     LineIterator), for arrays of lines at once: (xs, ys, valid) each (..., L), L the
-    longest line's cell count; valid marks the cells each line really has (with
-    repeat_end, a shorter line repeats its end cell instead and valid is all True).
+    longest line's cell count; valid marks the cells each line really has.
 
     Closed form of the iterator: after i steps the major axis has moved i cells and the
     minor one floor((den // 2 + i * numadd) / den).
@@ -305,9 +304,6 @@ def bresenham(x0, y0, x1, y1, repeat_end=False):
     numadd = np.minimum(dx, dy)[..., None]
     i = np.arange(int(den.max()) + 1 if den.size else 1, dtype=np.int32)
     valid = i <= den
-    if repeat_end:
-        i = np.minimum(i, den)
-        valid = np.ones(i.shape, dtype=bool)
     minor = (den // 2 + i * numadd) // np.maximum(den, 1)
     sx, sy = np.sign(x1 - x0)[..., None], np.sign(y1 - y0)[..., None]
     xs = x0[..., None] + sx * np.where(xmajor, i, minor)
@@ -435,16 +431,21 @@ def footprint_cost_reference(costmap, polygon, x, y, th):
     return worst
 
 
-def footprint_cells(costmap, polygon, pose):
-    """(H, W) bool: the cells of the footprint at pose, its outline and inside (FootprintHelper)."""
-    h, w = costmap.data.shape
-    mask = np.zeros((h, w), dtype=bool)
+def _outline_cells(costmap, polygon, pose):
+    """(xs, ys): the cells of the footprint's closed outline at pose (Bresenham, ends included)."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
     px = pose[0] + polygon[:, 0] * c - polygon[:, 1] * s
     py = pose[1] + polygon[:, 0] * s + polygon[:, 1] * c
     vx, vy, _ = world_to_cells(costmap, px, py)
     xs, ys, valid = bresenham(vx, vy, np.roll(vx, -1), np.roll(vy, -1))
-    xs, ys = xs[valid], ys[valid]
+    return xs[valid], ys[valid]
+
+
+def footprint_cells(costmap, polygon, pose):
+    """(H, W) bool: the cells of the footprint at pose, its outline and inside (FootprintHelper)."""
+    h, w = costmap.data.shape
+    mask = np.zeros((h, w), dtype=bool)
+    xs, ys = _outline_cells(costmap, polygon, pose)
     # Fill each column between its lowest and highest outline cell (a convex footprint).
     x0 = int(xs.min())
     cols = xs - x0
@@ -463,12 +464,7 @@ def footprint_cells_reference(costmap, polygon, pose):
     """footprint_cells column by column (test oracle)."""
     h, w = costmap.data.shape
     mask = np.zeros((h, w), dtype=bool)
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    px = pose[0] + polygon[:, 0] * c - polygon[:, 1] * s
-    py = pose[1] + polygon[:, 0] * s + polygon[:, 1] * c
-    vx, vy, _ = world_to_cells(costmap, px, py)
-    xs, ys, valid = bresenham(vx, vy, np.roll(vx, -1), np.roll(vy, -1))
-    xs, ys = xs[valid], ys[valid]
+    xs, ys = _outline_cells(costmap, polygon, pose)
     for cx in np.unique(xs):
         if 0 <= cx < w:
             col = ys[xs == cx]
