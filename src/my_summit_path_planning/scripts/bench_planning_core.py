@@ -58,6 +58,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "tools"))   # the workspace's tools/ (bench_report)
 
 from my_summit_path_planning import cost_values as cv  # noqa: E402
 from my_summit_path_planning.dwa import DWAPlanner  # noqa: E402
@@ -71,6 +72,7 @@ from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E
 from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
 from my_summit_path_planning.plugins import MoveBasePlugins  # noqa: E402
 from summit_nav_common.geometry import angle_diff  # noqa: E402
+from bench_report import git_commit  # noqa: E402  (the commit stamp of the benchmark page)
 
 CONFIG = os.path.join(HERE, "..", "config")
 WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
@@ -584,24 +586,11 @@ def save_part(folder, key, commit, result):
 def load_part(folder, key, commit):
     """The result save_part wrote for key, when it is from this commit (a clean tree); else None."""
     path = os.path.join(folder, key + ".json")
-    if not os.path.exists(path) or not commit or commit.endswith("+"):
+    if not os.path.exists(path) or not commit or commit.endswith("-dirty"):
         return None
     with open(path) as f:
         part = json.load(f)
     return part if part.get("commit") == commit else None
-
-
-def git_commit():
-    """The workspace's HEAD commit, with '+' when its tree has changes ('' outside git)."""
-    import subprocess
-    try:
-        head = subprocess.run(["git", "-C", WORKSPACE, "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", WORKSPACE, "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return ""
-    return head + ("+" if dirty else "")
 
 
 _FORKED_RUN = None
@@ -641,7 +630,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.resume and not args.parts:
         ap.error("--resume needs --parts DIR")
-    commit = git_commit()
+    commit = git_commit(WORKSPACE)
     params = load_move_base_params(CONFIG)
     out = {"max_vel_x": combination_params(params, max_vel_x=args.max_vel_x).dwa.max_vel_x}
     if not args.skip_navfn:

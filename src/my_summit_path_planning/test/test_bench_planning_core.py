@@ -181,7 +181,7 @@ def test_pairs_in_parallel_give_the_same_runs_and_each_combination_is_kept_as_it
     process; --parts keeps each finished combination stamped with the commit, and --resume
     takes it instead of running it again (only from the same clean commit)."""
     one, two, parts = tmp_path / "one.json", tmp_path / "two.json", tmp_path / "parts"
-    monkeypatch.setattr(bench, "git_commit", lambda: "abc1234")
+    monkeypatch.setattr(bench, "git_commit", lambda ws: "abc1234")
     assert bench.main(["--skip-navfn", "--runs", "2", "--jobs", "1", "--json", str(one)]) == 0
     assert bench.main(["--skip-navfn", "--runs", "2", "--jobs", "2", "--json", str(two),
                        "--parts", str(parts)]) == 0
@@ -197,6 +197,6 @@ def test_pairs_in_parallel_give_the_same_runs_and_each_combination_is_kept_as_it
     three = tmp_path / "three.json"
     assert bench.main(["--skip-navfn", "--runs", "2", "--json", str(three), "--parts", str(parts), "--resume"]) == 0
     assert json.load(open(three))["closed_loop_builtin"]["runs_detail"] == b["runs_detail"]
-    monkeypatch.setattr(bench, "git_commit", lambda: "def5678")     # another commit: run again
+    monkeypatch.setattr(bench, "git_commit", lambda ws: "def5678")     # another commit: run again
     with pytest.raises(AssertionError, match="run again"):
         bench.main(["--skip-navfn", "--runs", "2", "--parts", str(parts), "--resume"])
