@@ -327,7 +327,7 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
         updates = node_log_updates(logs["node"])
     expected = online_eval.expected_updates(scans.odometry, params["linearUpdate"], params["angularUpdate"])
     result = dict(
-        bag=bag, node=node_command(node_cmd)[-2], seed=seed, rate=rate, scans=len(scans.stamps), log_s=duration,
+        bag=bag, node=node_cmd or NODE, seed=seed, rate=rate, scans=len(scans.stamps), log_s=duration,
         play_wall_s=play_wall,
         ate_online_m=ate, ate_odom_m=float(online_eval.metrics.ate_rmse(scans.odometry, scans.reference)),
         cpu_s=cpu, updates=updates, expected_updates=expected,
@@ -437,7 +437,7 @@ def main(argv=None):
 
 def run_seeds(args, overrides, out):
     results = []
-    print(f"{os.path.basename(args.log)}, rosbag play rate {args.rate:g}, node {node_command(args.node)[-2]}")
+    print(f"{os.path.basename(args.log)}, rosbag play rate {args.rate:g}, node {args.node or NODE}")
     print(f"{'seed':>4} {'ATE online':>10} {'ATE odom':>9} {'CPU s':>7} {'ms/update':>9} {'updates':>11} "
           f"{'RSS MB':>7} {'wall s':>7}", flush=True)
     with tempfile.TemporaryDirectory(prefix="slam_bag_") as tmp:
@@ -470,7 +470,7 @@ def run_seeds(args, overrides, out):
           f"update (worst {known(worst['cpu_ms_per_update'], '.1f')}); peak RSS {med['peak_rss_mb']:.0f} MB; maps in {out}")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(dict(log=os.path.abspath(args.log), node=node_command(args.node)[-2], rate=args.rate,
+            json.dump(dict(log=os.path.abspath(args.log), node=args.node or NODE, rate=args.rate,
                            seeds=args.seeds, runs=results, median=med, worst=worst, duration=args.duration),
                       f, indent=2)
     return 0

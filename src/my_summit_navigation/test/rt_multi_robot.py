@@ -117,7 +117,7 @@ def send_after(goal, watches, stop, timeout_wall):
     rospy.loginfo(f"{lead.name} at y {y:.2f} > {after['y_above']}: sending {goal['robot']} its goal")
     spot = goal_spot(goal["x"], goal["y"], goal["theta"])
     client.send_goal(move_base_goal(spot, "map", rospy.Time.now()))
-    stop.wait()
+    stop.wait()   # the client (and its goal handle) lives until the test has judged the run
 
 
 class MultiRobotGoals(unittest.TestCase):
