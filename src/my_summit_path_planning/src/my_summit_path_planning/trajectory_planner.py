@@ -56,10 +56,13 @@ min(max_vel_theta, max(min_in_place_vel_theta, |error|)) within the acceleration
 window and sqrt(2 acc_lim_theta |error|) (rotateToGoal), every command checked as a
 trajectory; the goal is reached once the heading is within yaw_goal_tolerance.
 
-Backing up in escape mode is commanded even when its trajectory meets an obstacle
-(only a trajectory with no way to the plan, cost -2, is refused), as in the real
-planner: the outline check fails for every sample, the backing one too, as soon as
-the robot's current outline touches a lethal cell.
+Backing up in escape mode is commanded even when its trajectory's outline check fails,
+as in the real planner (which refuses only a trajectory with no way to the plan, cost
+-2): that check fails for every sample, the backing one too, as soon as the robot's
+current outline touches a lethal cell. Unlike the real planner, a back-up that would
+run the outline into a lethal or unknown cell the footprint does not cover now
+(``backs_into_obstacle``: a wall behind the robot) is refused too, and move_base's
+recoveries take over instead of the robot reversing into the wall.
 
 Where this differs from the real node: the goal is the plan's last point (the real node
 takes the last point of the windowed plan: the same whenever the goal is in the local
@@ -458,6 +461,24 @@ def footprint_cells(costmap, polygon, pose):
     on = (cx >= 0) & (cx < w)
     mask[:, cx[on]] = (rows >= lo[on]) & (rows <= hi[on])
     return mask
+
+
+def backs_into_obstacle(costmap, polygon, pose, points):
+    """True when the footprint's outline at any of points ((n, 3) poses) meets a lethal or
+    unknown cell, or leaves the costmap, outside the footprint's cells at pose: moving
+    along them would run into an obstacle the robot does not already overlap."""
+    h, w = costmap.data.shape
+    covered = footprint_cells(costmap, polygon, pose)
+    for p in points:
+        xs, ys = _outline_cells(costmap, polygon, p)
+        on = (xs >= 0) & (ys >= 0) & (xs < w) & (ys < h)
+        if not on.all():
+            return True
+        cost = costmap.data[ys, xs]
+        hit = (cost == LETHAL_OBSTACLE) | (cost == NO_INFORMATION)
+        if (hit & ~covered[ys, xs]).any():
+            return True
+    return False
 
 
 def footprint_cells_reference(costmap, polygon, pose):
@@ -1124,6 +1145,11 @@ class TrajectoryPlanner(HeldPlan):
             return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
                              "footprint off lethal and unknown cells with a clear way to the plan, and backing up "
                              "at escape_vel leads where no way to the plan is clear",
+                             n_valid=0, n_samples=n_samples, mode="escape")
+        if rb.cost[0] == COLLIDES and backs_into_obstacle(costmap, self.polygon, pose, rb.points(0)):
+            return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
+                             "footprint off lethal and unknown cells, and backing up at escape_vel would run the "
+                             "footprint into a lethal cell it does not cover now",
                              n_valid=0, n_samples=n_samples, mode="escape")
         cost = 1.0 if rb.cost[0] == COLLIDES else float(rb.cost[0])
         return DWAResult(cmd=(float(cfg.escape_vel), 0.0, 0.0), trajectory=rb.points(0), n_valid=n_valid,
