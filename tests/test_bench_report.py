@@ -141,6 +141,11 @@ SECTION_RESULTS = {
                                          "cpu_s": 50.0, "peak_rss_mb": 600.0},
                  "worst": {"ate_online_m": 0.31, "cpu_ms_per_update": 130.0},
                  "runs": [{"seed": 1, "ate_online_m": 0.29, "updates": 430, "expected_updates": 431}]}}},
+    "slam_bag_peer": {"rate": 4.0, "node": "/tmp/peers_ws/devel/lib/gmapping/slam_gmapping", "logs": {
+        "aces": {"rate": 4.0, "median": {"ate_online_m": 0.40, "ate_odom_m": 9.4, "cpu_ms_per_update": 120.0,
+                                         "cpu_s": 53.0, "peak_rss_mb": 90.0},
+                 "worst": {"ate_online_m": 0.67, "cpu_ms_per_update": 123.0},
+                 "runs": [{"seed": 1, "ate_online_m": 0.40}, {"seed": 2, "ate_online_m": 0.67}]}}},
     "slam_sim": {"median": {"ate_m": 0.006, "precision": 0.999, "recall": 0.998, "cpu_per_sim_s": 0.22,
                             "peak_rss_mb": 325.0},
                  "runs": [{"ate_m": 0.006, "precision": 0.999, "recall": 0.998, "cpu_per_sim_s": 0.22},
@@ -193,6 +198,7 @@ SECTION_RESULTS = {
 EXPECTED_MET = {
     "slam_carmen": [True, None],
     "slam_bag": [False, True, True, False],  # intel: worst 0.18 > 0.17; aces: 120 ms > 90 ms
+    "slam_bag_peer": [None, None],  # the yardstick: no targets
     "slam_sim": [True, True, True],
     "amcl": [True, True, False, True, False],  # node: 0.13 > 0.12 CPU s per simulated s
     # GlobalPlanner A*: faster than NavFn, path 1.029 > 1.02; Dijkstra: slower, no path target;
@@ -311,3 +317,13 @@ def test_readme_table_adds_no_count_when_every_target_of_the_section_is_met():
     store = bench_report.merge(bench_report.empty_store(), [make_record("laser", met_only, "aaaaaaa")])
     line = [x for x in bench_report.render_readme_table(store) if x.startswith("| laser scans/s")][0]
     assert "| yes |" in line and "section:" not in line
+
+
+def test_peer_section_names_the_executable_and_how_to_measure_it():
+    rows = bench_report.rows_slam_bag_peer(SECTION_RESULTS["slam_bag_peer"])
+    assert rows[0]["figure"].startswith("slam_gmapping (/tmp/peers_ws/devel/lib/gmapping/slam_gmapping) live, CARMEN aces")
+    assert rows[0]["measured"] == "0.400 m (0.670); odometry 9.40 m"
+    assert rows[1]["measured"] == "120 ms (123); 53 s; 90 MB"
+    assert "--gmapping EXECUTABLE" in bench_report.measure_command("slam_bag_peer")
+    page = bench_report.render_page(bench_report.empty_store())
+    assert 'make bench BENCH_ARGS="--only slam_bag_peer --gmapping EXECUTABLE' in page

@@ -19,6 +19,8 @@ beside each time. Sections:
   slam_bag    slam_gmapping (ROS node, the real node's evaluation parameters) on the
               CARMEN Intel and ACES logs played from a rosbag (rosbag play --clock -r
               BAG_RATE), seeds 1-5: online aligned ATE, CPU per filter update, peak RSS
+  slam_bag_peer (only with --only slam_bag_peer --gmapping EXE [--gmapping-setup SETUP]) the
+              same on another slam_gmapping executable, e.g. the real gmapping as the oracle
   slam_sim    slam_gmapping (ROS node, course parameters, 30 particles) over the tour of
               the built-in world: ATE vs ground truth, map precision / recall, CPU per
               simulated second, peak RSS; one profiled tour for where the node's time goes
@@ -239,14 +241,19 @@ BAG_SEEDS = (1, 2, 3, 4, 5)   # median and worst of 5 (the real gmapping's refer
 CARMEN_LOGS = {"intel": "intel-corrected.log.gz", "aces": "aces-corrected.log.gz"}
 
 
-def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS):
-    """bench_slam_bag.py on each of `logs` (names, default intel and aces)."""
-    res = {"rate": rate, "logs": {}}
+def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS, node=None, node_setup=None):
+    """bench_slam_bag.py on each of `logs` (names, default intel and aces); node: another
+    slam_gmapping-compatible executable run instead of ours (node_setup: the bash file its
+    environment needs), for the slam_bag_peer section."""
+    res = {"rate": rate, "logs": {}, "node": node}
+    tag = "_peer" if node else ""
+    extra = (["--node", node] + (["--node-setup", node_setup] if node_setup else [])) if node else []
     for name in logs or list(CARMEN_LOGS):
         res["logs"][name] = _run_script(
             "my_summit_mapping", "bench_slam_bag.py",
             [os.path.join(DATA, "carmen", CARMEN_LOGS[name]), "--rate", str(rate), "--seeds"]
-            + [str(s) for s in seeds] + ["--out", os.path.join(OUT, f"slam_bag_{name}")], f"bench_slam_bag_{name}.json")
+            + [str(s) for s in seeds] + ["--out", os.path.join(OUT, f"slam_bag{tag}_{name}")] + extra,
+            f"bench_slam_bag{tag}_{name}.json")
     return res
 
 
@@ -394,6 +401,10 @@ def main():
                     help="slam_carmen, slam_bag: only these CARMEN logs (intel, aces; default both)")
     ap.add_argument("--bag-rate", type=float, default=BAG_RATE,
                     help=f"slam_bag: rosbag play rate (default {BAG_RATE:g})")
+    ap.add_argument("--gmapping", metavar="EXECUTABLE",
+                    help="slam_bag_peer: the other slam_gmapping executable (e.g. the real gmapping's)")
+    ap.add_argument("--gmapping-setup", metavar="SETUP_BASH",
+                    help="slam_bag_peer: a setup.bash the other executable's environment needs")
     ap.add_argument("--explore-worlds", nargs="+", choices=sorted(EXPLORE_RUNS),
                     help="explore: only these worlds (default all; willow takes about 40 min)")
     ap.add_argument("--profile", metavar="PREFIX", help=argparse.SUPPRESS)  # sim_rtf's profiled child
@@ -413,11 +424,20 @@ def main():
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
         ap.error(f"unknown section(s) {unknown}; known: {', '.join(bench_report.SECTIONS)}")
+    if "slam_bag_peer" in only:
+        if not args.gmapping:
+            ap.error("slam_bag_peer needs --gmapping EXECUTABLE (the real gmapping's slam_gmapping, built outside "
+                     "the project, e.g. by shared tools' build_ros_peers.sh)")
+        for what, path in (("--gmapping", args.gmapping), ("--gmapping-setup", args.gmapping_setup)):
+            if path and not os.path.isfile(path):
+                ap.error(f"{what}: no such file: {path}")
     measures = {
         "laser": lambda: bench_laser(args.runs),
         "sim_rtf": lambda: bench_sim_rtf_runs(max(1, min(args.runs, 3))),
         "slam_carmen": lambda: bench_slam_carmen(args.carmen_logs),
         "slam_bag": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate),
+        "slam_bag_peer": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate, node=os.path.abspath(args.gmapping),
+                                                node_setup=args.gmapping_setup and os.path.abspath(args.gmapping_setup)),
         "slam_sim": lambda: bench_slam_sim(args.runs),
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "planning": lambda: bench_planning(args.runs),

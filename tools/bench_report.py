@@ -36,6 +36,8 @@ SECTIONS = {
     "slam_carmen": "the SLAM core offline on the CARMEN Intel and ACES logs",
     "slam_bag": "slam_gmapping (ROS node) live on the CARMEN Intel and ACES logs played from a rosbag, as the "
                 "real gmapping node is evaluated",
+    "slam_bag_peer": ("the real gmapping (or any slam_gmapping-compatible executable, given with --gmapping) "
+                      "live on the same bags, parameters, seeds and scoring as slam_bag: the oracle for its targets"),
     "slam_sim": ("slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour; "
                  "where its time goes (one profiled tour)"),
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping; the live node's CPU",
@@ -157,6 +159,27 @@ def rows_slam_bag(res):
                         "peak_rss_mb": med["peak_rss_mb"], "updates": [x["updates"] for x in runs],
                         "expected_updates": [x["expected_updates"] for x in runs]},
                        f"<= {SLAM_BAG_CPU_MS:g} ms", med["cpu_ms_per_update"] <= SLAM_BAG_CPU_MS))
+    return out
+
+
+def rows_slam_bag_peer(res):
+    """The other node's figures on slam_bag's bags: no targets (it is the yardstick)."""
+    out = []
+    node = os.path.basename(res.get("node") or "?")
+    for name, r in res["logs"].items():
+        med, worst, runs = r["median"], r["worst"], r["runs"]
+        seeds = ", ".join(str(x["seed"]) for x in runs)
+        out.append(row(f"{node} ({res.get('node')}) live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, "
+                       f"odometry drift seeds {seeds} (its filter unseeded): online aligned ATE median (worst)",
+                       f"{med['ate_online_m']:.3f} m ({worst['ate_online_m']:.3f}); odometry {med['ate_odom_m']:.2f} m",
+                       {"ate_online_m": med["ate_online_m"], "worst_ate_online_m": worst["ate_online_m"],
+                        "ate_odom_m": med["ate_odom_m"], "runs_ate_online_m": [x["ate_online_m"] for x in runs]}))
+        cpu = med.get("cpu_ms_per_update")
+        out.append(row("... CPU per filter update median (worst); node CPU; peak RSS",
+                       (f"{cpu:.0f} ms ({worst['cpu_ms_per_update']:.0f}); " if cpu is not None else "n/a; ")
+                       + f"{med['cpu_s']:.0f} s; {med['peak_rss_mb']:.0f} MB",
+                       {"cpu_ms_per_update": cpu, "worst_cpu_ms_per_update": worst.get("cpu_ms_per_update"),
+                        "cpu_s": med["cpu_s"], "peak_rss_mb": med["peak_rss_mb"]}))
     return out
 
 
@@ -458,7 +481,7 @@ def rows_e2e(res):
 
 
 ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_carmen, "slam_bag": rows_slam_bag,
-        "slam_sim": rows_slam_sim,
+        "slam_bag_peer": rows_slam_bag_peer, "slam_sim": rows_slam_sim,
         "amcl": rows_amcl, "planning": rows_planning, "stack_cpu": rows_stack_cpu, "explore": rows_explore, "patrol": rows_patrol,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e}
 
@@ -586,8 +609,11 @@ def save_store(store, path=STORE):
 RENDER_COMMAND = "make bench-page"
 
 
+MEASURE_ARGS = {"slam_bag_peer": " --gmapping EXECUTABLE [--gmapping-setup SETUP_BASH]"}
+
+
 def measure_command(section):
-    return f'make bench BENCH_ARGS="--only {section}"'
+    return f'make bench BENCH_ARGS="--only {section}{MEASURE_ARGS.get(section, "")}"'
 
 
 def _cell(text):
