@@ -40,7 +40,10 @@ one function each, vectorized over all samples x steps:
    0.5 path_distance_bias (distance to the plan of the scored point + of the point
    forward_point_distance [m] ahead of it) + 0.5 goal_distance_bias (distance to the
    local goal along the plan, of both points) + occdist_scale (highest costmap cost
-   under the centre, ``obstacle_costs``) + twirling_scale |vth|.
+   under the centre, ``obstacle_costs``) + twirling_scale |vth|. The forward point is
+   measured against the plan from forward_point_distance ahead of the robot on, so a
+   robot facing away from its plan turns toward it the short way (dwa_local_planner's
+   grids reach the plan's first cells, where every backward heading scores the same).
 6. ``choose``: the cheapest admissible sample; the oscillation flags are updated.
 7. ``no_valid_reason``: with none admissible, how many samples each constraint rejected
    and where the nearest obstacle lies; move_base then stops the robot.
@@ -313,13 +316,17 @@ def rollouts(cfg, pose, samples, costmap, clearance, latency):
 class Scene:
     """What a cycle plans in: the local costmap; dist_obs (H, W) [m]: distance to the
     nearest blocked cell (NO_OBSTACLE_DIST without one); dist_path, togo (H, W) [m]:
-    path_distance_maps of the local plan; local (M, 2): the local plan; plan: the global
-    plan; final: the local plan ends at the goal."""
+    path_distance_maps of the local plan; ahead_path, ahead_togo: the same of the local
+    plan from forward_point_distance along it on (where the forward point is measured);
+    local (M, 2): the local plan; plan: the global plan; final: the local plan ends at
+    the goal."""
 
     costmap: object
     dist_obs: np.ndarray
     dist_path: np.ndarray
     togo: np.ndarray
+    ahead_path: np.ndarray
+    ahead_togo: np.ndarray
     local: np.ndarray
     plan: np.ndarray
     final: bool
@@ -517,18 +524,12 @@ def path_distance_maps(local, costmap):
     return dist * res, lab_left[labels]
 
 
-def _end_direction(local, plan, back=0.3):
-    """Unit direction of the last ~back [m] of the local plan (or of the whole plan)."""
-    pts = local if len(local) >= 2 else plan
-    if len(pts) < 2:
-        return np.zeros(2)
-    end = pts[-1]
-    d = np.hypot(pts[:, 0] - end[0], pts[:, 1] - end[1])
-    far = np.flatnonzero(d >= back)
-    ref = pts[far[-1]] if len(far) else pts[0]
-    v = end - ref
-    n = math.hypot(v[0], v[1])
-    return v / n if n > 0 else np.zeros(2)
+def plan_ahead(local, distance):
+    """The local plan (M, 2) from `distance` [m] along it on (its last point at least)."""
+    if len(local) < 2:
+        return local
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(local, axis=0).T))])
+    return local[min(int(np.searchsorted(arc, distance)), len(local) - 1):]
 
 
 def obstacle_costs(ro, k, final, escape):
@@ -555,8 +556,11 @@ def scores(cfg, samples, ro, k, occ, scene, dist_goal):
 
     Goal distance as MapGrid measures it, along the plan (plan length left from the
     nearest plan cell + the distance to it), so turning in place is no progress. The
-    forward point (forward_point_distance ahead of the scored pose) is measured from the
-    local goal shifted that far on along the plan's last direction (goal_front_costs).
+    forward point (forward_point_distance ahead of the scored pose) is measured the same
+    way against the plan from forward_point_distance ahead of the robot on, as the goal
+    shifted that far (goal_front_costs) and the nose kept on the path (alignment_costs)
+    ask: a nose that points back along the plan is then as far from it as its heading
+    error makes it, so a robot facing away from its plan turns toward it the short way.
     Heading for the final goal: path and goal distances within GOAL_DEAD_ZONE x
     xy_goal_tolerance count as 0, the forward-point terms fade out within
     NEAR_GOAL_FACTOR x forward_point_distance of the goal (a trajectory that gets there
@@ -568,14 +572,13 @@ def scores(cfg, samples, ro, k, occ, scene, dist_goal):
     fy = ey + cfg.forward_point_distance * np.sin(eth)
     end, fwd = scene.cells(ex, ey), scene.cells(fx, fy)
     path_end = scene.dist_path[end]
-    path_fwd = scene.dist_path[fwd]
+    path_fwd = scene.ahead_path[fwd]
     goal_end = scene.togo[end] + path_end
     if final:
         dead = GOAL_DEAD_ZONE * cfg.xy_goal_tolerance
         path_end = np.maximum(path_end - dead, 0.0)
         goal_end = np.maximum(goal_end - dead, 0.0)
-    front_goal = scene.local[-1] + cfg.forward_point_distance * _end_direction(scene.local, scene.plan)
-    goal_fwd = np.hypot(fx - front_goal[0], fy - front_goal[1])
+    goal_fwd = scene.ahead_togo[fwd] + path_fwd
     fwd_w = 0.0 if dist_goal <= NEAR_GOAL_FACTOR * cfg.forward_point_distance else 1.0
     if final and cfg.forward_point_distance > 0:
         fwd_w = fwd_w * np.clip(np.hypot(ex - goal[0], ey - goal[1])
@@ -1076,11 +1079,12 @@ class DWAPlanner(HeldPlan):
         if dist_obs is None:
             dist_obs = np.full(costmap.data.shape, NO_OBSTACLE_DIST, dtype=np.float32)
         dist_path, togo = path_distance_maps(local, costmap)
+        ahead_path, ahead_togo = path_distance_maps(plan_ahead(local, self.config.forward_point_distance), costmap)
         if self.config.prune_plan:
             final = len(local) == len(self.plan) - self._closest
         else:
             final = len(local) == len(self.plan)
-        return Scene(costmap, dist_obs, dist_path, togo, local, self.plan, final)
+        return Scene(costmap, dist_obs, dist_path, togo, ahead_path, ahead_togo, local, self.plan, final)
 
     def _dwa_step(self, pose, velocity, costmap, force_escape):
         """The pipeline, steps 1-7; escape mode when forced, or when the robot starts
