@@ -145,7 +145,8 @@ SECTION_RESULTS = {
         "aces": {"rate": 4.0, "median": {"ate_online_m": 0.40, "ate_odom_m": 9.4, "cpu_ms_per_update": 120.0,
                                          "cpu_s": 53.0, "peak_rss_mb": 90.0},
                  "worst": {"ate_online_m": 0.67, "cpu_ms_per_update": 123.0},
-                 "runs": [{"seed": 1, "ate_online_m": 0.40}, {"seed": 2, "ate_online_m": 0.67}]}}},
+                 "runs": [{"seed": 1, "ate_online_m": 0.40, "updates": 438, "expected_updates": 440},
+                          {"seed": 2, "ate_online_m": 0.67, "updates": 407, "expected_updates": 439}]}}},
     "slam_sim": {"median": {"ate_m": 0.006, "precision": 0.999, "recall": 0.998, "cpu_per_sim_s": 0.22,
                             "peak_rss_mb": 325.0},
                  "runs": [{"ate_m": 0.006, "precision": 0.999, "recall": 0.998, "cpu_per_sim_s": 0.22},
@@ -323,7 +324,7 @@ def test_peer_section_names_the_executable_and_how_to_measure_it():
     rows = bench_report.rows_slam_bag_peer(SECTION_RESULTS["slam_bag_peer"])
     assert rows[0]["figure"].startswith("slam_gmapping (/tmp/peers_ws/devel/lib/gmapping/slam_gmapping) live, CARMEN aces")
     assert rows[0]["measured"] == "0.400 m (0.670); odometry 9.40 m"
-    assert rows[1]["measured"] == "120 ms (123); 53 s; 90 MB"
+    assert rows[1]["measured"] == "120 ms (123); 438/440 407/439; 53 s; 90 MB"
     assert "--gmapping EXECUTABLE" in bench_report.measure_command("slam_bag_peer")
     page = bench_report.render_page(bench_report.empty_store())
     assert 'make bench BENCH_ARGS="--only slam_bag_peer --gmapping EXECUTABLE' in page
