@@ -53,7 +53,7 @@ sys.path.insert(0, HERE)
 import bench_planning_core as core  # noqa: E402  (the pairs, the planner kinds, the time limit)
 from roslaunch_session import check_node_args  # noqa: E402
 
-NODE = os.path.join(HERE, "..", "nodes", "move_base")
+NODE = os.path.normpath(os.path.join(HERE, "..", "nodes", "move_base"))
 NODE_NAME = "move_base"
 WORLDS = dict(core.WORLDS)
 DEFAULT_PAIRS = {"builtin": 50, "willow": 20}   # bench_planning's closed loop
