@@ -48,8 +48,9 @@ def test_runner_as_a_command_exits_2_on_bad_input():
 
 
 def record(**kw):
-    rec = {"pair": 1, "goal": [1.0, 2.0, 0.5], "final": [1.0, 2.0, 0.5], "state": live.SUCCEEDED, "text": "Goal reached.",
-           "done": True, "time_s": 12.0, "geodesic_m": 6.0, "plan_m": 8.0, "limit_s": 40.0, "collisions": 0}
+    rec = {"pair": 1, "goal": [1.0, 2.0, 0.5], "final": [1.0, 2.0, 0.5], "state": live.SUCCEEDED,
+           "text": "Goal reached.", "done": True, "time_s": 12.0, "geodesic_m": 6.0, "plan_m": 8.0, "limit_s": 40.0,
+           "collisions": 0}
     rec.update(kw)
     return rec
 

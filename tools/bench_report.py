@@ -382,8 +382,8 @@ def rows_planning_peer(res):
                 "geodesic_ratio_median": geo, "ratio_median": plan})]
     failed = res.get("failed_pairs") or []
     why = "; ".join(f"{r['pair']}: {r['failure']}" for r in res.get("runs_detail", []) if not r["reached"])
-    out.append(row("... pairs not reached (why)", (", ".join(map(str, failed)) or "none") + (f" ({why})" if why else ""),
-                   {"failed_pairs": failed}))
+    out.append(row("... pairs not reached (why)",
+                   (", ".join(map(str, failed)) or "none") + (f" ({why})" if why else ""), {"failed_pairs": failed}))
     cpu = res.get("cpu_s")
     if cpu is not None:
         sim = sum(r["time_s"] for r in res.get("runs_detail", []))
@@ -509,7 +509,8 @@ def rows_e2e(res):
 ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_carmen, "slam_bag": rows_slam_bag,
         "slam_bag_peer": rows_slam_bag_peer, "slam_sim": rows_slam_sim,
         "amcl": rows_amcl, "planning": rows_planning,
-        "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore, "patrol": rows_patrol,
+        "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore,
+        "patrol": rows_patrol,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e}
 
 
