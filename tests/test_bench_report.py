@@ -175,6 +175,15 @@ SECTION_RESULTS = {
                  "closed_loop_willow": {"runs": 19, "reached_share": 0.95, "collisions": 0, "ratio_median": None},
                  "closed_loop_builtin_fast": {"runs": 50, "reached_share": 1.0, "collisions": 0, "ratio_median": 1.57,
                                               "max_vel_x": 1.5}},
+    "planning_peer": {"node": "/tmp/peers_ws/devel/lib/move_base/move_base", "runs": 20,
+                      "world": "/ws/data/maps/willow-full-0.05.yaml", "global_type": "navfn/NavfnROS",
+                      "local_type": "dwa_local_planner/DWAPlannerROS", "max_vel_x": 1.0, "reached_share": 0.8,
+                      "collisions": 0, "geodesic_ratio_median": 1.6, "ratio_median": None, "failed_pairs": [7, 20],
+                      "cpu_s": 40.0, "runs_detail": [
+                          {"pair": 1, "reached": True, "failure": "", "time_s": 60.0},
+                          {"pair": 7, "reached": False, "time_s": 14.0, "failure": "aborted: Failed to find a valid "
+                           "control. Even after executing recovery behaviors."},
+                          {"pair": 20, "reached": False, "time_s": 26.0, "failure": "timeout (161 s)"}]},
     "stack_cpu": {"goals": 10, "speed": 1.0, "reached_min": 10, "collisions": 1,
                   "real_cpu_per_sim_s": {"amcl": 0.094, "move_base": 0.41, "sum": 0.50},
                   "median": {"cpu_per_sim_s": {"map_server": 0.001, "amcl": 0.12, "move_base": 0.45, "sum": 0.571,
@@ -205,6 +214,7 @@ EXPECTED_MET = {
     # GlobalPlanner A*: faster than NavFn, path 1.029 > 1.02; Dijkstra: slower, no path target;
     # closed loop on willow: 95% < 98% and no ratio
     "planning": [True, True, True, False, False, None, True, True, False, None],
+    "planning_peer": [None, None, None],  # the yardstick: no targets
     "stack_cpu": [True, None, False, None, None],  # 0.571 <= 0.6; a collision
     "explore": [True, True],
     "patrol": [True],
@@ -328,3 +338,24 @@ def test_peer_section_names_the_executable_and_how_to_measure_it():
     assert "--gmapping EXECUTABLE" in bench_report.measure_command("slam_bag_peer")
     page = bench_report.render_page(bench_report.empty_store())
     assert 'make bench BENCH_ARGS="--only slam_bag_peer --gmapping EXECUTABLE' in page
+
+
+def test_planning_peer_section_names_the_executable_its_failed_pairs_and_how_to_measure_it():
+    res = SECTION_RESULTS["planning_peer"]
+    rows = bench_report.rows_planning_peer(res)
+    assert rows[0]["figure"].startswith("move_base (/tmp/peers_ws/devel/lib/move_base/move_base) live, "
+                                        "willow-full-0.05.yaml, 20 seeded pairs, navfn/NavfnROS + "
+                                        "dwa_local_planner/DWAPlannerROS, max_vel_x 1.0 m/s")
+    assert rows[0]["measured"] == "80% / 0 / 1.60 (-)"
+    assert rows[1]["measured"] == ("7, 20 (7: aborted: Failed to find a valid control. Even after executing "
+                                   "recovery behaviors.; 20: timeout (161 s))")
+    assert rows[2]["measured"] == "40 s over 100 s simulated (0.40)"
+    assert [r["met"] for r in bench_report.rows_planning_peer(dict(res, failed_pairs=[], runs_detail=[],
+                                                                   cpu_s=None))] == [None, None]
+    assert "--move-base EXECUTABLE" in bench_report.measure_command("planning_peer")
+    page = bench_report.render_page(bench_report.empty_store())
+    assert 'make bench BENCH_ARGS="--only planning_peer --move-base EXECUTABLE' in page
+    readme = bench_report.render_readme_table(bench_report.merge(bench_report.empty_store(),
+                                                                 [make_record("planning_peer", res, "ddddddd")]))
+    assert any(line.startswith("| move_base (/tmp/peers_ws/devel/lib/move_base/move_base) live") and
+               "| 80% / 0 / 1.60 (-) | - | - | `ddddddd` |" in line for line in readme)   # its headline row

@@ -35,6 +35,9 @@ beside each time. Sections:
               seeded goal pairs on the built-in world and 20 on willow-full-0.05: share
               reached, collisions, median of time to goal / (grid geodesic / max_vel_x)
               and / (planned path length / max_vel_x)
+  planning_peer (only with --only planning_peer --move-base EXE [--move-base-setup SETUP]) a
+              move_base executable, e.g. the real one as the oracle, live on planning's 20
+              willow-full-0.05 pairs (navfn + DWA; bench_move_base_live.py): reached, collisions
   stack_cpu   map_server + amcl + move_base (move_base.launch sim:=true, the course's config) on a
               fixed, seeded 10-goal run on the built-in world at 1x real time
               (bench_stack_cpu.py): CPU per simulated second and peak RSS per node, goals
@@ -312,6 +315,19 @@ def bench_planning(runs):
     return res
 
 
+PEER_WILLOW_PAIRS = 20   # planning's closed loop on willow-full-0.05
+
+
+def bench_planning_peer(node, node_setup=None):
+    """bench_move_base_live.py: the move_base executable `node` (node_setup: the bash file
+    its environment needs) live on the willow pairs of planning's closed loop, navfn + DWA."""
+    res = _run_script("my_summit_path_planning", "bench_move_base_live.py",
+                      ["--world", "willow", "--pairs", str(PEER_WILLOW_PAIRS), "--local-planner", "dwa",
+                       "--node", node, "--out", os.path.join(OUT, "planning_peer")]
+                      + (["--node-setup", node_setup] if node_setup else []), "bench_planning_peer.json")
+    return res
+
+
 STACK_CPU_PROFILE_GOALS = 4   # the profiled run drives the first goals only (the profiler is slow)
 
 
@@ -405,6 +421,10 @@ def main():
                     help="slam_bag_peer: the other slam_gmapping executable (e.g. the real gmapping's)")
     ap.add_argument("--gmapping-setup", metavar="SETUP_BASH",
                     help="slam_bag_peer: a setup.bash the other executable's environment needs")
+    ap.add_argument("--move-base", metavar="EXECUTABLE",
+                    help="planning_peer: the other move_base executable (e.g. the real move_base's)")
+    ap.add_argument("--move-base-setup", metavar="SETUP_BASH",
+                    help="planning_peer: a setup.bash the other executable's environment needs (sourced --extend)")
     ap.add_argument("--explore-worlds", nargs="+", choices=sorted(EXPLORE_RUNS),
                     help="explore: only these worlds (default all; willow takes about 40 min)")
     ap.add_argument("--profile", metavar="PREFIX", help=argparse.SUPPRESS)  # sim_rtf's profiled child
@@ -431,6 +451,13 @@ def main():
         for what, path in (("--gmapping", args.gmapping), ("--gmapping-setup", args.gmapping_setup)):
             if path and not os.path.isfile(path):
                 ap.error(f"{what}: no such file: {path}")
+    if "planning_peer" in only:
+        if not args.move_base:
+            ap.error("planning_peer needs --move-base EXECUTABLE (the real move_base, built outside the project, "
+                     "e.g. by shared tools' build_ros_peers.sh)")
+        for what, path in (("--move-base", args.move_base), ("--move-base-setup", args.move_base_setup)):
+            if path and not os.path.isfile(path):
+                ap.error(f"{what}: no such file: {path}")
     measures = {
         "laser": lambda: bench_laser(args.runs),
         "sim_rtf": lambda: bench_sim_rtf_runs(max(1, min(args.runs, 3))),
@@ -441,6 +468,8 @@ def main():
         "slam_sim": lambda: bench_slam_sim(args.runs),
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "planning": lambda: bench_planning(args.runs),
+        "planning_peer": lambda: bench_planning_peer(os.path.abspath(args.move_base), args.move_base_setup
+                                                     and os.path.abspath(args.move_base_setup)),
         "stack_cpu": lambda: bench_stack_cpu(max(1, min(args.runs, 3))),
         "explore": lambda: bench_explore(args.explore_worlds),
         "patrol": bench_patrol,

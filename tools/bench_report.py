@@ -43,6 +43,9 @@ SECTIONS = {
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping; the live node's CPU",
     "planning": ("the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop of every global x local "
                  "planner over seeded goal pairs"),
+    "planning_peer": ("the real move_base (or any move_base-compatible executable, given with --move-base) live "
+                      "on planning's 20 willow-full-0.05 goal pairs, navfn + DWA, judged as its closed loop: the "
+                      "oracle for its targets"),
     "stack_cpu": ("map_server + amcl + move_base (the course's config) on a fixed, seeded 10-goal run on the "
                   "built-in world at 1x real time: CPU per simulated second and peak RSS per node, goals reached, "
                   "collisions; where move_base's time goes (one profiled run)"),
@@ -371,6 +374,29 @@ def rows_planning(res):
     return out
 
 
+def rows_planning_peer(res):
+    """The other move_base's figures on planning's willow pairs: no targets (it is the yardstick)."""
+    node = os.path.basename(res.get("node") or "?")
+    geo, plan = res["geodesic_ratio_median"], res.get("ratio_median")
+    out = [row(f"{node} ({res.get('node')}) live, {os.path.basename(res['world'])}, {res['runs']} seeded pairs, "
+               f"{res['global_type']} + {res['local_type']}, max_vel_x {res['max_vel_x']} m/s: reached / collisions / "
+               "median time ratio, geodesic (plan)",
+               f"{res['reached_share'] * 100:.0f}% / {res['collisions']} / {_fmt(geo, '.2f')} ({_fmt(plan, '.2f')})",
+               {"reached_share": res["reached_share"], "collisions": res["collisions"],
+                "geodesic_ratio_median": geo, "ratio_median": plan})]
+    failed = res.get("failed_pairs") or []
+    why = "; ".join(f"{r['pair']}: {r['failure']}" for r in res.get("runs_detail", []) if not r["reached"])
+    out.append(row("... pairs not reached (why)",
+                   (", ".join(map(str, failed)) or "none") + (f" ({why})" if why else ""), {"failed_pairs": failed}))
+    cpu = res.get("cpu_s")
+    if cpu is not None:
+        sim = sum(r["time_s"] for r in res.get("runs_detail", []))
+        out.append(row("... the node's CPU over the goals, per simulated second",
+                       f"{cpu:.0f} s over {sim:.0f} s simulated ({cpu / sim:.2f})" if sim else f"{cpu:.0f} s",
+                       {"cpu_s": cpu, "sim_s": sim}))
+    return out
+
+
 STACK_CPU_SUM = 0.6  # [CPU s per simulated s] map_server + amcl + move_base while navigating (issue 24)
 
 
@@ -486,7 +512,9 @@ def rows_e2e(res):
 
 ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_carmen, "slam_bag": rows_slam_bag,
         "slam_bag_peer": rows_slam_bag_peer, "slam_sim": rows_slam_sim,
-        "amcl": rows_amcl, "planning": rows_planning, "stack_cpu": rows_stack_cpu, "explore": rows_explore, "patrol": rows_patrol,
+        "amcl": rows_amcl, "planning": rows_planning,
+        "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore,
+        "patrol": rows_patrol,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e}
 
 
@@ -613,7 +641,8 @@ def save_store(store, path=STORE):
 RENDER_COMMAND = "make bench-page"
 
 
-MEASURE_ARGS = {"slam_bag_peer": " --gmapping EXECUTABLE [--gmapping-setup SETUP_BASH]"}
+MEASURE_ARGS = {"slam_bag_peer": " --gmapping EXECUTABLE [--gmapping-setup SETUP_BASH]",
+                "planning_peer": " --move-base EXECUTABLE [--move-base-setup SETUP_BASH]"}
 
 
 def measure_command(section):

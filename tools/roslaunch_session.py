@@ -55,6 +55,36 @@ def stop_process_tree(proc, grace=20.0):
         pass
 
 
+def cpu_seconds(pid):
+    """utime + stime [s] of a process, from /proc/<pid>/stat."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def check_node_args(node, setup):
+    """ValueError naming the option when --node EXECUTABLE / --node-setup SETUP_BASH (a
+    peer node run in ours' place, and the file its environment is sourced from) cannot be used."""
+    if setup is not None and node is None:
+        raise ValueError("--node-setup needs --node")
+    if node is not None and not (os.path.isfile(node) and os.access(node, os.X_OK)):
+        raise ValueError(f"--node {node}: not an executable file")
+    if setup is not None and not os.path.isfile(setup):
+        raise ValueError(f"--node-setup {setup}: no such file")
+
+
+def sourced_env(setup, base, extend=False):
+    """The environment (dict) a bash started with `base` has after sourcing `setup`
+    (with extend: `source setup --extend`, a catkin workspace's setup.bash then adds its
+    workspace to the one `base` has instead of replacing it)."""
+    proc = subprocess.run(["bash", "-c", 'source "$0" "$@" >&2 && env -0', setup] + (["--extend"] if extend else []),
+                          env=base, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    if proc.returncode != 0:
+        raise ValueError(f"--node-setup {setup}: sourcing it failed (exit status {proc.returncode}): "
+                         f"{proc.stderr.decode(errors='replace')[-500:]}")
+    return dict(item.split("=", 1) for item in proc.stdout.decode(errors="replace").split("\0") if "=" in item)
+
+
 def process_tree(root):
     """psutil.Process of root (first) and of every process below it; [] if root is gone."""
     try:

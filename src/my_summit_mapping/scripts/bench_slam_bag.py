@@ -63,6 +63,8 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
+from roslaunch_session import check_node_args, cpu_seconds, sourced_env  # noqa: E402,F401  (test_slam_bag uses them here)
+
 NODE = os.path.join(HERE, "..", "nodes", "slam_gmapping")
 NODE_NAME = "slam_gmapping"
 EVAL_PARAMS = dict(particles=30, delta=0.05, linearUpdate=0.2, angularUpdate=0.1,
@@ -81,13 +83,6 @@ CLOCK_TAIL_STEP = 0.01  # [s sim] between those /clock messages, published in re
 
 
 # ----------------------------------------------------------------- /proc of the node
-def cpu_seconds(pid):
-    """utime + stime [s] of a process, from /proc/<pid>/stat."""
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def peak_rss_mb(pid):
     """Peak resident memory (VmHWM) [MB] of a process."""
     with open(f"/proc/{pid}/status") as f:
@@ -141,16 +136,6 @@ def node_command(node=None):
     return ([sys.executable, NODE] if node is None else [node]) + [f"__name:={NODE_NAME}"]
 
 
-def sourced_env(setup, base):
-    """The environment (dict) a bash started with `base` has after sourcing `setup`."""
-    proc = subprocess.run(["bash", "-c", 'source "$0" >&2 && env -0', setup], env=base,
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    if proc.returncode != 0:
-        raise ValueError(f"--node-setup {setup}: sourcing it failed (exit status {proc.returncode}): "
-                         f"{proc.stderr.decode(errors='replace')[-500:]}")
-    return dict(item.split("=", 1) for item in proc.stdout.decode(errors="replace").split("\0") if "=" in item)
-
-
 GMAPPING_UPDATE = re.compile(r"update frame \d+")  # GridSlamProcessor::processScan, once per update
 
 
@@ -159,16 +144,6 @@ def node_log_updates(path):
     stdout and stderr interleave); None when there are none."""
     with open(path, errors="replace") as f:
         return len(GMAPPING_UPDATE.findall(f.read())) or None
-
-
-def check_node_args(node, setup):
-    """ValueError naming the option when --node / --node-setup cannot be used."""
-    if setup is not None and node is None:
-        raise ValueError("--node-setup needs --node")
-    if node is not None and not (os.path.isfile(node) and os.access(node, os.X_OK)):
-        raise ValueError(f"--node {node}: not an executable file")
-    if setup is not None and not os.path.isfile(setup):
-        raise ValueError(f"--node-setup {setup}: no such file")
 
 
 # ----------------------------------------------------------------- one run (child process)
