@@ -181,6 +181,26 @@ def wait_param(port, name, timeout=20.0, procs=()):
     return False
 
 
+def wait_message(env, topic, timeout=60.0, procs=(), nonempty=None):
+    """Wait until a message comes on `topic` (on env's master) -- with `nonempty` (a field
+    name), one in which that field is not an empty list: a loaded machine plans and draws
+    late, so a fixed wall-clock wait can end before the message the picture needs.
+    -> True when one came. Fails at once if one of procs has exited."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        for p in procs:
+            assert p.poll() is None, "process %s exited early (rc %s)" % (p.args, p.returncode)
+        try:
+            out = subprocess.run(["rostopic", "echo", "-n", "1", topic], env=env, capture_output=True, text=True,
+                                 timeout=max(1.0, min(10.0, deadline - time.time()))).stdout
+        except subprocess.TimeoutExpired:
+            continue
+        if out.strip() and (nonempty is None or ("%s: []" % nonempty) not in out):
+            return True
+        time.sleep(0.25)
+    return False
+
+
 def wait_sim_time(env, seconds, timeout=60.0, procs=()):
     """Wait until /clock (on env's master) has reached `seconds` of simulated time: a
     loaded machine starts the simulator late and runs it slow, so a fixed wall-clock wait
