@@ -316,66 +316,6 @@ def test_boxed_in_backs_up_in_escape_mode(fp):
     assert not p.escaping and -0.2 < pose[0] <= -0.1
 
 
-def _boxed_in(m):
-    _box(m, 0.40, -1.0, 0.5, 1.0)     # wall ahead (front at 0.37)
-    _box(m, -1.5, 0.35, 0.5, 0.45)    # left wall (side at 0.32)
-    _box(m, -1.5, -0.45, 0.5, -0.36)  # right wall (cells to y -0.35)
-
-
-def test_backs_up_through_a_cell_it_already_touches(fp):
-    """The real planner backs up even when the outline check fails, because it fails for
-    every sample once the current outline touches a lethal cell (a mark on the robot's own
-    edge); the back-up is still commanded when nothing behind is blocked."""
-    m = _costmap()
-    _boxed_in(m)
-    _box(m, 0.36, 0.0, 0.36, 0.0)     # a mark on the front edge of the outline
-    p = _planner(fp)
-    p.set_plan(np.column_stack([np.linspace(0.0, -2.0, 41), np.zeros(41)]), 0.0)
-    r = p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
-    assert r.ok and r.mode == "escape" and r.cmd == (-0.1, 0.0, 0.0) and r.n_valid == 0
-
-
-def test_does_not_back_into_a_wall(fp):
-    """Boxed in with a wall right behind too (the rear edge 5 mm from its cells): backing up
-    at escape_vel would run the rear edge into it before a later cycle could stop it, so
-    no command is given (move_base's recoveries take over). A mark farther back does not
-    stop the back-up from starting (test_backs_up_toward_a_mark_farther_back).
-
-    Found on willow-full-0.05 (bench_planning_core --willow-runs 20 --only 11
-    --local-planner trajectory-dwa): TrajectoryPlannerROS with dwa true, stuck at the
-    0.8 m gap near (45.4, 31.8), found no legal sample and reversed at escape_vel into the
-    wall behind it, as the real planner would (it backs up whatever the outline check
-    says); the simulator counted a collision. One collision per global planner on willow
-    (pairs 11, 1, 16) came from this."""
-    m = _costmap()
-    _boxed_in(m)
-    _box(m, -0.45, -0.1, -0.36, 0.1)  # a post behind: cells from x -0.35 back (the plan passes it)
-    p = _planner(fp)
-    p.set_plan(np.column_stack([np.linspace(0.0, -2.0, 41), np.zeros(41)]), 0.0)
-    pose = (0.025, 0.0, 0.0)          # rear edge (padded) at -0.345
-    r = p.compute_velocity(pose, (0.0, 0.0, 0.0), m)
-    assert not r.ok and r.cmd == (0.0, 0.0, 0.0) and "backing up" in r.reason and "lethal cell" in r.reason
-    assert tp.backs_into_obstacle(m, p.polygon, pose, np.array([[0.015, 0.0, 0.0]]))
-    assert not tp.backs_into_obstacle(m, p.polygon, pose, np.array([[0.024, 0.0, 0.0]]))
-
-
-def test_backs_up_toward_a_mark_farther_back(fp):
-    """Boxed in, a lethal mark 0.2 m behind the rear edge (where the robot came from: the
-    laser's, often): the back-up starts, as the real planner's does; the first cells it
-    would reach before a later cycle could stop it are clear.
-
-    Found on willow-full-0.05 pair 17 (navfn + TrajectoryPlannerROS, dwa false): refusing
-    every back-up whose whole sim_time met a lethal cell left the robot where it had
-    driven in, aborted after 144 s; the real rule backed it out."""
-    m = _costmap()
-    _boxed_in(m)
-    _box(m, -0.60, -0.1, -0.57, 0.1)  # a mark 0.2 m behind the rear edge (-0.37)
-    p = _planner(fp)
-    p.set_plan(np.column_stack([np.linspace(0.0, -2.0, 41), np.zeros(41)]), 0.0)
-    r = p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
-    assert r.ok and r.mode == "escape" and r.cmd == (-0.1, 0.0, 0.0)
-
-
 def test_no_way_to_the_plan_fails(fp):
     """The robot walled in all round with the plan outside: no command, not even backing up."""
     m = _costmap()

@@ -56,14 +56,10 @@ min(max_vel_theta, max(min_in_place_vel_theta, |error|)) within the acceleration
 window and sqrt(2 acc_lim_theta |error|) (rotateToGoal), every command checked as a
 trajectory; the goal is reached once the heading is within yaw_goal_tolerance.
 
-Backing up in escape mode is commanded even when its trajectory's outline check fails,
-as in the real planner (which refuses only a trajectory with no way to the plan, cost
--2): that check fails for every sample, the backing one too, as soon as the robot's
-current outline touches a lethal cell. Unlike the real planner, a back-up that would
-run the outline into a lethal or unknown cell the footprint does not cover now
-before a later cycle could stop it (``backs_into_obstacle``: a wall right behind the
-robot) is refused too, and move_base's recoveries take over instead of the robot
-reversing into the wall.
+Backing up in escape mode is commanded even when its trajectory meets an obstacle
+(only a trajectory with no way to the plan, cost -2, is refused), as in the real
+planner: the outline check fails for every sample, the backing one too, as soon as
+the robot's current outline touches a lethal cell.
 
 Where this differs from the real node: the goal is the plan's last point (the real node
 takes the last point of the windowed plan: the same whenever the goal is in the local
@@ -462,24 +458,6 @@ def footprint_cells(costmap, polygon, pose):
     on = (cx >= 0) & (cx < w)
     mask[:, cx[on]] = (rows >= lo[on]) & (rows <= hi[on])
     return mask
-
-
-def backs_into_obstacle(costmap, polygon, pose, points):
-    """True when the footprint's outline at any of points ((n, 3) poses) meets a lethal or
-    unknown cell, or leaves the costmap, outside the footprint's cells at pose: moving
-    along them would run into an obstacle the robot does not already overlap."""
-    h, w = costmap.data.shape
-    covered = footprint_cells(costmap, polygon, pose)
-    for p in points:
-        xs, ys = _outline_cells(costmap, polygon, p)
-        on = (xs >= 0) & (ys >= 0) & (xs < w) & (ys < h)
-        if not on.all():
-            return True
-        cost = costmap.data[ys, xs]
-        hit = (cost == LETHAL_OBSTACLE) | (cost == NO_INFORMATION)
-        if (hit & ~covered[ys, xs]).any():
-            return True
-    return False
 
 
 def footprint_cells_reference(costmap, polygon, pose):
@@ -1147,25 +1125,9 @@ class TrajectoryPlanner(HeldPlan):
                              "footprint off lethal and unknown cells with a clear way to the plan, and backing up "
                              "at escape_vel leads where no way to the plan is clear",
                              n_valid=0, n_samples=n_samples, mode="escape")
-        if rb.cost[0] == COLLIDES and backs_into_obstacle(costmap, self.polygon, pose, self._until_stop(rb.points(0))):
-            return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
-                             "footprint off lethal and unknown cells, and backing up at escape_vel would run the "
-                             "footprint into a lethal cell it does not cover now",
-                             n_valid=0, n_samples=n_samples, mode="escape")
         cost = 1.0 if rb.cost[0] == COLLIDES else float(rb.cost[0])
         return DWAResult(cmd=(float(cfg.escape_vel), 0.0, 0.0), trajectory=rb.points(0), n_valid=n_valid,
                          n_samples=n_samples, cost=cost, mode="escape")
-
-    def _until_stop(self, points):
-        """The first of a back-up's points (n, 3: the pose, then one per step over
-        sim_time): through the first step that ends after a later cycle could stop it (the
-        control latency, one period and braking from escape_vel). Checked every cycle, so
-        the robot backs up to a lethal cell behind it and stops there; a mark farther back
-        (often the laser's, where it just drove) is no reason not to start."""
-        cfg = self.config
-        horizon = self.latency + cfg.sim_period + abs(cfg.escape_vel) / max(cfg.acc_lim_x, 1e-9)
-        steps = int(math.ceil(horizon / (cfg.sim_time / max(len(points), 1))))   # rollout: dt = sim_time / n
-        return points[:min(len(points), 1 + max(1, steps))]
 
     def _ahead_goal_dist(self, r, i, costmap):
         """Goal distance [cells] heading_lookahead ahead of sample i's end point; None off the map."""
