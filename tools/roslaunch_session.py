@@ -6,6 +6,7 @@
 The launch runs in its own process group; on exit it gets SIGINT, then SIGKILL for the
 group and for every process that was below it (roslaunch gives nodes their own sessions).
 """
+import json
 import os
 import signal
 import socket
@@ -123,6 +124,25 @@ class RoslaunchSession:
     def __exit__(self, *exc):
         self.stop()
         return False
+
+
+RESULT_PREFIX = "RESULT "   # the line a child run prints its JSON record on (child_result)
+
+
+def print_result(record):
+    """A child run's record, as the line child_result reads back."""
+    print(RESULT_PREFIX + json.dumps(record), flush=True)
+
+
+def child_result(cmd):
+    """Run cmd (a child run of a benchmark script: rospy starts once per process, so each
+    run has its own) to its end; -> (record, None) from its last print_result line, or
+    (None, what went wrong: its exit status and the tail of its output)."""
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith(RESULT_PREFIX)]
+    if proc.returncode != 0 or not lines:
+        return None, f"exit status {proc.returncode}:\n{proc.stdout[-4000:]}"
+    return json.loads(lines[-1][len(RESULT_PREFIX):]), None
 
 
 def run_bounded(args, env, timeout):

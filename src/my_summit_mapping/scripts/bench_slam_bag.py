@@ -63,7 +63,8 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
-from roslaunch_session import check_node_args, cpu_seconds, sourced_env  # noqa: E402,F401  (test_slam_bag uses them here)
+from roslaunch_session import (check_node_args, child_result, cpu_seconds,  # noqa: E402,F401  (test_slam_bag
+                               print_result, sourced_env)                   # uses some here)
 
 NODE = os.path.join(HERE, "..", "nodes", "slam_gmapping")
 NODE_NAME = "slam_gmapping"
@@ -405,7 +406,7 @@ def main(argv=None):
         except (RuntimeError, ValueError, OSError) as e:
             print(f"bench_slam_bag: error: seed {args.child_seed}: {e}", flush=True)
             return 1
-        print("RESULT " + json.dumps(result), flush=True)
+        print_result(result)
         return 0
     return run_seeds(args, overrides, out)
 
@@ -428,13 +429,10 @@ def run_seeds(args, overrides, out):
                    "--out", out] + (["--set"] + args.set if args.set else []) \
                 + (["--node", os.path.abspath(args.node)] if args.node else []) \
                 + (["--node-setup", os.path.abspath(args.node_setup)] if args.node_setup else [])
-            proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-            lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
-            if proc.returncode != 0 or not lines:
-                print(f"bench_slam_bag: seed {seed} failed (exit status {proc.returncode}):\n{proc.stdout[-4000:]}",
-                      file=sys.stderr)
+            r, failure = child_result(cmd)
+            if r is None:
+                print(f"bench_slam_bag: seed {seed} failed ({failure}", file=sys.stderr)
                 return 1
-            r = json.loads(lines[-1][len("RESULT "):])
             results.append(r)
             print(f"{seed:4d} {r['ate_online_m']:10.3f} {r['ate_odom_m']:9.3f} {r['cpu_s']:7.1f} "
                   f"{known(r['cpu_ms_per_update'], '9.1f')} {known(r['updates'], '5d')}/{r['expected_updates']:<5d} "

@@ -51,7 +51,7 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, HERE)
 
 import bench_planning_core as core  # noqa: E402  (the pairs, the planner kinds, the time limit)
-from roslaunch_session import check_node_args  # noqa: E402
+from roslaunch_session import check_node_args, child_result, print_result  # noqa: E402
 
 NODE = os.path.normpath(os.path.join(HERE, "..", "nodes", "move_base"))
 NODE_NAME = "move_base"
@@ -338,7 +338,7 @@ def main(argv=None):
         except (RuntimeError, ValueError, OSError) as e:
             print(f"bench_move_base_live: error: pair {pair['pair']}: {e}", flush=True)
             return 1
-        print("RESULT " + json.dumps(r), flush=True)
+        print_result(r)
         return 0
     from my_summit_path_planning.params import load_move_base_params
     pairs = core.draw_pairs(load_move_base_params(core.CONFIG), world_yaml, args.pairs, args.seed)
@@ -349,14 +349,10 @@ def main(argv=None):
     for k, pair in enumerate(pairs, 1):
         if args.only and k not in args.only:
             continue
-        proc = subprocess.run(child_command(args, k, pair, out), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                              text=True)
-        lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
-        if proc.returncode != 0 or not lines:
-            print(f"bench_move_base_live: pair {k} failed (exit status {proc.returncode}):\n{proc.stdout[-4000:]}",
-                  file=sys.stderr)
+        r, failure = child_result(child_command(args, k, pair, out))
+        if r is None:
+            print(f"bench_move_base_live: pair {k} failed ({failure}", file=sys.stderr)
             return 1
-        r = json.loads(lines[-1][len("RESULT "):])
         runs.append(r)
         plan = "-" if r["ratio"] is None else f"{r['ratio']:.2f}"
         print(f"  pair {k:2d}: reached={r['reached']} t={r['time_s']:6.1f}s geodesic {r['geodesic_m']:5.1f} m "
