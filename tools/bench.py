@@ -409,6 +409,12 @@ def bench_e2e():
             "lines": lines}
 
 
+# The sections that run another executable (the real node) in ours' place: section ->
+# (its option, whose --OPTION-setup goes with it; what the executable is).
+PEER_SECTIONS = {"slam_bag_peer": ("gmapping", "the real gmapping's slam_gmapping"),
+                 "planning_peer": ("move-base", "the real move_base")}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", action="append", help=", ".join(bench_report.SECTIONS) + " (repeatable)")
@@ -444,20 +450,16 @@ def main():
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
         ap.error(f"unknown section(s) {unknown}; known: {', '.join(bench_report.SECTIONS)}")
-    if "slam_bag_peer" in only:
-        if not args.gmapping:
-            ap.error("slam_bag_peer needs --gmapping EXECUTABLE (the real gmapping's slam_gmapping, built outside "
-                     "the project, e.g. by shared tools' build_ros_peers.sh)")
-        for what, path in (("--gmapping", args.gmapping), ("--gmapping-setup", args.gmapping_setup)):
+    for section, (option, what) in PEER_SECTIONS.items():
+        if section not in only:
+            continue
+        exe, setup = getattr(args, option.replace("-", "_")), getattr(args, option.replace("-", "_") + "_setup")
+        if not exe:
+            ap.error(f"{section} needs --{option} EXECUTABLE ({what}, built outside the project, e.g. by shared "
+                     "tools' build_ros_peers.sh)")
+        for flag, path in ((f"--{option}", exe), (f"--{option}-setup", setup)):
             if path and not os.path.isfile(path):
-                ap.error(f"{what}: no such file: {path}")
-    if "planning_peer" in only:
-        if not args.move_base:
-            ap.error("planning_peer needs --move-base EXECUTABLE (the real move_base, built outside the project, "
-                     "e.g. by shared tools' build_ros_peers.sh)")
-        for what, path in (("--move-base", args.move_base), ("--move-base-setup", args.move_base_setup)):
-            if path and not os.path.isfile(path):
-                ap.error(f"{what}: no such file: {path}")
+                ap.error(f"{flag}: no such file: {path}")
     measures = {
         "laser": lambda: bench_laser(args.runs),
         "sim_rtf": lambda: bench_sim_rtf_runs(max(1, min(args.runs, 3))),
