@@ -139,29 +139,45 @@ SLAM_BAG_ATE = {"intel": (0.11, 0.17), "aces": (0.30, 0.39)}
 SLAM_BAG_CPU_MS = 90.0  # [ms] per filter update
 
 
+def _bag_log_rows(r, figure, cpu_figure, ate_target=None, cpu_target=None):
+    """The two rows of one CARMEN bag in slam_bag or slam_bag_peer (its result r): online
+    ATE median (worst) and CPU per update, each judged against its target when given
+    (ATE: (median, worst) [m]; CPU: [ms])."""
+    med, worst, runs = r["median"], r["worst"], r["runs"]
+    cpu = med.get("cpu_ms_per_update")
+    updates = " ".join(f"{x.get('updates', 'n/a')}/{x.get('expected_updates', 'n/a')}" for x in runs)
+    return [
+        row(figure,
+            f"{med['ate_online_m']:.3f} m ({worst['ate_online_m']:.3f}); odometry {med['ate_odom_m']:.2f} m",
+            {"ate_online_m": med["ate_online_m"], "worst_ate_online_m": worst["ate_online_m"],
+             "ate_odom_m": med["ate_odom_m"], "runs_ate_online_m": [x["ate_online_m"] for x in runs]},
+            None if ate_target is None else f"<= {ate_target[0]:.2f} m ({ate_target[1]:.2f})",
+            None if ate_target is None else
+            med["ate_online_m"] <= ate_target[0] and worst["ate_online_m"] <= ate_target[1]),
+        row(cpu_figure,
+            (f"{cpu:.0f} ms ({worst['cpu_ms_per_update']:.0f}); " if cpu is not None else "n/a; ")
+            + f"{updates}; {med['cpu_s']:.0f} s; {med['peak_rss_mb']:.0f} MB",
+            {"cpu_ms_per_update": cpu, "worst_cpu_ms_per_update": worst.get("cpu_ms_per_update"),
+             "cpu_s": med["cpu_s"], "peak_rss_mb": med["peak_rss_mb"],
+             "updates": [x.get("updates") for x in runs],
+             "expected_updates": [x.get("expected_updates") for x in runs]},
+            None if cpu_target is None else f"<= {cpu_target:g} ms",
+            None if cpu_target is None else cpu is not None and cpu <= cpu_target),
+    ]
+
+
+def _seeds(r):
+    return ", ".join(str(x["seed"]) for x in r["runs"])
+
+
 def rows_slam_bag(res):
     out = []
     for name, r in res["logs"].items():
-        med, worst, runs = r["median"], r["worst"], r["runs"]
-        seeds = ", ".join(str(x["seed"]) for x in runs)
-        target = SLAM_BAG_ATE.get(name)
-        out.append(row(f"slam_gmapping live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, seeds {seeds}: "
-                       "online aligned ATE median (worst); drifted odometry",
-                       f"{med['ate_online_m']:.3f} m ({worst['ate_online_m']:.3f}); odometry {med['ate_odom_m']:.2f} m",
-                       {"ate_online_m": med["ate_online_m"], "worst_ate_online_m": worst["ate_online_m"],
-                        "ate_odom_m": med["ate_odom_m"], "runs_ate_online_m": [x["ate_online_m"] for x in runs]},
-                       None if target is None else f"<= {target[0]:.2f} m ({target[1]:.2f})",
-                       target is not None and med["ate_online_m"] <= target[0] and worst["ate_online_m"] <= target[1]))
-        updates = " ".join(f"{x['updates']}/{x['expected_updates']}" for x in runs)
-        out.append(row(f"... CPU per filter update median (worst); updates done / expected per seed; node CPU; "
-                       "peak RSS",
-                       f"{med['cpu_ms_per_update']:.0f} ms ({worst['cpu_ms_per_update']:.0f}); {updates}; "
-                       f"{med['cpu_s']:.0f} s; {med['peak_rss_mb']:.0f} MB",
-                       {"cpu_ms_per_update": med["cpu_ms_per_update"],
-                        "worst_cpu_ms_per_update": worst["cpu_ms_per_update"], "cpu_s": med["cpu_s"],
-                        "peak_rss_mb": med["peak_rss_mb"], "updates": [x["updates"] for x in runs],
-                        "expected_updates": [x["expected_updates"] for x in runs]},
-                       f"<= {SLAM_BAG_CPU_MS:g} ms", med["cpu_ms_per_update"] <= SLAM_BAG_CPU_MS))
+        out += _bag_log_rows(
+            r, f"slam_gmapping live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, seeds {_seeds(r)}: "
+               "online aligned ATE median (worst); drifted odometry",
+            "... CPU per filter update median (worst); updates done / expected per seed; node CPU; peak RSS",
+            SLAM_BAG_ATE.get(name), SLAM_BAG_CPU_MS)
     return out
 
 
@@ -170,23 +186,11 @@ def rows_slam_bag_peer(res):
     out = []
     node = os.path.basename(res.get("node") or "?")
     for name, r in res["logs"].items():
-        med, worst, runs = r["median"], r["worst"], r["runs"]
-        seeds = ", ".join(str(x["seed"]) for x in runs)
-        out.append(row(f"{node} ({res.get('node')}) live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, "
-                       f"odometry drift seeds {seeds} (its filter unseeded): online aligned ATE median (worst)",
-                       f"{med['ate_online_m']:.3f} m ({worst['ate_online_m']:.3f}); odometry {med['ate_odom_m']:.2f} m",
-                       {"ate_online_m": med["ate_online_m"], "worst_ate_online_m": worst["ate_online_m"],
-                        "ate_odom_m": med["ate_odom_m"], "runs_ate_online_m": [x["ate_online_m"] for x in runs]}))
-        cpu = med.get("cpu_ms_per_update")
-        updates = " ".join(f"{x.get('updates', 'n/a')}/{x.get('expected_updates', 'n/a')}" for x in runs)
-        out.append(row("... CPU per filter update median (worst); updates done / expected per seed (fewer: it "
-                       "fell behind the bag); node CPU; peak RSS",
-                       (f"{cpu:.0f} ms ({worst['cpu_ms_per_update']:.0f}); " if cpu is not None else "n/a; ")
-                       + f"{updates}; {med['cpu_s']:.0f} s; {med['peak_rss_mb']:.0f} MB",
-                       {"cpu_ms_per_update": cpu, "worst_cpu_ms_per_update": worst.get("cpu_ms_per_update"),
-                        "cpu_s": med["cpu_s"], "peak_rss_mb": med["peak_rss_mb"],
-                        "updates": [x.get("updates") for x in runs],
-                        "expected_updates": [x.get("expected_updates") for x in runs]}))
+        out += _bag_log_rows(
+            r, f"{node} ({res.get('node')}) live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, "
+               f"odometry drift seeds {_seeds(r)} (its filter unseeded): online aligned ATE median (worst)",
+            "... CPU per filter update median (worst); updates done / expected per seed (fewer: it "
+            "fell behind the bag); node CPU; peak RSS")
     return out
 
 
