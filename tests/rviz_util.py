@@ -181,11 +181,10 @@ def wait_param(port, name, timeout=20.0, procs=()):
     return False
 
 
-def wait_message(env, topic, timeout=60.0, procs=(), nonempty=None):
-    """Wait until a message comes on `topic` (on env's master) -- with `nonempty` (a field
-    name), one in which that field is not an empty list: a loaded machine plans and draws
-    late, so a fixed wall-clock wait can end before the message the picture needs.
-    -> True when one came. Fails at once if one of procs has exited."""
+def _poll_topic(env, topic, timeout, procs, accept):
+    """Echo one message of `topic` (on env's master) at a time until accept(text) returns
+    something other than None, and return that; None on timeout. Fails at once if one of
+    procs has exited."""
     deadline = time.time() + timeout
     while time.time() < deadline:
         for p in procs:
@@ -195,10 +194,21 @@ def wait_message(env, topic, timeout=60.0, procs=(), nonempty=None):
                                  timeout=max(1.0, min(10.0, deadline - time.time()))).stdout
         except subprocess.TimeoutExpired:
             continue
-        if out.strip() and (nonempty is None or ("%s: []" % nonempty) not in out):
-            return True
+        got = accept(out)
+        if got is not None:
+            return got
         time.sleep(0.25)
-    return False
+    return None
+
+
+def wait_message(env, topic, timeout=60.0, procs=(), nonempty=None):
+    """Wait until a message comes on `topic` (on env's master) -- with `nonempty` (a field
+    name), one in which that field is not an empty list: a loaded machine plans and draws
+    late, so a fixed wall-clock wait can end before the message the picture needs.
+    -> True when one came. Fails at once if one of procs has exited."""
+    def accept(out):
+        return True if out.strip() and (nonempty is None or ("%s: []" % nonempty) not in out) else None
+    return _poll_topic(env, topic, timeout, procs, accept) is True
 
 
 def wait_sim_time(env, seconds, timeout=60.0, procs=()):
@@ -206,22 +216,14 @@ def wait_sim_time(env, seconds, timeout=60.0, procs=()):
     loaded machine starts the simulator late and runs it slow, so a fixed wall-clock wait
     can end before it has published anything. -> the last sim time seen [s] (< seconds
     on timeout). Fails at once if one of procs has exited."""
-    deadline, t = time.time() + timeout, -1.0
-    while time.time() < deadline:
-        for p in procs:
-            assert p.poll() is None, "process %s exited early (rc %s)" % (p.args, p.returncode)
-        try:
-            out = subprocess.run(["rostopic", "echo", "-n", "1", "/clock"], env=env, capture_output=True,
-                                 text=True, timeout=max(1.0, min(10.0, deadline - time.time()))).stdout
-        except subprocess.TimeoutExpired:
-            continue
+    last = [-1.0]
+
+    def accept(out):
         fields = dict(line.strip().split(":", 1) for line in out.splitlines() if ":" in line)
         try:
-            t = int(fields["secs"]) + int(fields["nsecs"]) * 1e-9
+            last[0] = int(fields["secs"]) + int(fields["nsecs"]) * 1e-9
         except (KeyError, ValueError):
-            time.sleep(0.25)
-            continue
-        if t >= seconds:
-            return t
-        time.sleep(0.25)
-    return t
+            return None
+        return last[0] if last[0] >= seconds else None
+    got = _poll_topic(env, "/clock", timeout, procs, accept)
+    return last[0] if got is None else got
