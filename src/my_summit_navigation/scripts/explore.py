@@ -119,7 +119,7 @@ class ExploreNode:
         grid = np.asarray(cm.data, np.int16).reshape(info.height, info.width)
         with self.lock:
             r = self.explore.step(rospy.Time.now().to_sec(), pose, grid, info.resolution,
-                                  (info.origin.position.x, info.origin.position.y))
+                                  (info.origin.position.x, info.origin.position.y), cm.header.stamp.to_sec())
         for level, text in r.logs:
             (rospy.logwarn if level == "warn" else rospy.loginfo)(f"explore: {text}")
         if r.cancel and self.goal_handle is not None:

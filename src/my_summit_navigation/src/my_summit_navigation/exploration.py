@@ -24,7 +24,7 @@ SUCCEEDED, ABORTED = 3, 4
 # unable to turn to the goal heading and never report the goal reached.
 REACHED = 0.3
 SAME_GOAL = 0.5      # [m] a frontier goal this close to the active one keeps it
-EMPTY_ROUNDS = 4     # planning rounds in a row without a frontier before it is over
+EMPTY_ROUNDS = 4     # costmaps in a row without a frontier before it is over
 
 
 @dataclass
@@ -68,7 +68,8 @@ class Explore:
         self.goal_state = None      # how move_base ended it (GoalStatus value), None while active
         self.sent = 0
         self.failed = 0             # goals aborted or without progress
-        self.empty_rounds = 0       # rounds in a row that found no frontier
+        self.empty_rounds = 0       # costmaps in a row on which no frontier was found
+        self.empty_stamp = None     # the stamp of the last of them
 
     def goal_done(self, number, state):
         """move_base ended goal number (1 for the first goal sent, as in the logs) with
@@ -108,12 +109,16 @@ class Explore:
             return self._give_up(out, f"no progress for {self.progress_timeout:.0f} s", robot, no_progress=True)
         return None
 
-    def _nothing_found(self, out, grid, resolution, origin, robot):
+    def _nothing_found(self, out, grid, resolution, origin, robot, stamp):
         if self.goal is not None and self.goal_state is None:
             return None   # let the last goal finish: it may uncover more
-        # Over only when it stays so for EMPTY_ROUNDS rounds: the costmap follows a map
+        # Over only when it stays so on EMPTY_ROUNDS costmaps: the costmap follows a map
         # published every few seconds, and the robot may stand in a cell the latest update
-        # marked (then nothing is reachable from it for a moment).
+        # marked (then nothing is reachable from it for a moment). A round that runs again
+        # on a costmap already counted (rounds late under load run back to back) adds nothing.
+        if stamp is not None and stamp == self.empty_stamp:
+            return None
+        self.empty_stamp = stamp
         self.empty_rounds += 1
         if self.empty_rounds < EMPTY_ROUNDS:
             out.logs.append(("info", f"no frontier found ({self.empty_rounds}/{EMPTY_ROUNDS}); looking again"))
@@ -135,10 +140,11 @@ class Explore:
             why.append(f"{beyond} frontier{'s' if beyond > 1 else ''} seen where the robot cannot pass")
         return f"no reachable frontier left ({'; '.join(why)})"
 
-    def step(self, now, pose, grid, resolution, origin):
+    def step(self, now, pose, grid, resolution, origin, stamp=None):
         """One planning round at now [s]: pose (x, y, yaw) of the robot in the grid's frame;
         grid (H, W) OccupancyGrid values of the global costmap, resolution [m/cell],
-        origin (x, y) [m]. Returns a Round."""
+        origin (x, y) [m], stamp: the costmap's header stamp [s] (None: a new costmap each
+        round). Returns a Round."""
         out = Round()
         robot = tuple(pose[:2])
         self.stuck.update(robot)
@@ -149,9 +155,9 @@ class Explore:
         found = fr.find_frontiers(grid, resolution, origin, robot, self.params, self.blacklist)
         out.frontiers = found
         if not found:
-            out.over = self._nothing_found(out, grid, resolution, origin, robot)
+            out.over = self._nothing_found(out, grid, resolution, origin, robot, stamp)
             return out
-        self.empty_rounds = 0
+        self.empty_rounds, self.empty_stamp = 0, None
         if self.goal is not None and any(math.hypot(f.goal[0] - self.goal[0], f.goal[1] - self.goal[1]) < SAME_GOAL
                                          for f in found[:3]):
             return out
