@@ -62,7 +62,8 @@ starts turning, turns on the spot to the goal heading on the time-optimal profil
 (``rotation_speed``) until within yaw_goal_tolerance [rad], and reports the goal reached
 once stopped (trans_stopped_vel [m/s], theta_stopped_vel [rad/s]). The goal approach
 is planned with APPROACH_DECEL x acc_lim_x; move_base's measured control latency
-(set_control_latency, [s]) lengthens braking and the checked horizon.
+(set_control_latency, [s]) lengthens braking and the checked horizon, and the goal
+rotation plans each command for the time it stays in force.
 
 Parameters (DWAConfig, the DWAPlannerROS namespace, Noetic names and defaults) carry
 their units there; scaling_speed, max_scaling_factor and use_dwa are accepted and not
@@ -887,22 +888,42 @@ class OscillationFlags:
 
 
 # -- goal rotation --------------------------------------------------------------------
+def held_turn(v, w, acc, dt):
+    """The angle [rad] a base turning at w [rad/s] covers when v [rad/s] (same sign, >= 0
+    here) is commanded and held for dt [s] while the base ramps toward it at acc
+    [rad/s^2], and then braked to rest at acc."""
+    t_ramp = min(dt, abs(v - w) / acc)
+    reached = w + math.copysign(acc * t_ramp, v - w)
+    held = 0.5 * (w + reached) * t_ramp + reached * (dt - t_ramp)
+    return held + reached * reached / (2.0 * acc)
+
+
 def rotation_speed(err, vth, acc, max_vel, min_vel, tolerance, dt):
     """Signed in-place turn rate [rad/s] toward a heading err [rad] away (time-optimal).
 
     base_local_planner's rotateToGoal turns at min(max_vel_theta, |err|) rad/s (a
     proportional law: the last radian takes seconds) capped by sqrt(2 acc |err|); here
-    the cap alone, i.e. the bang-bang profile: accelerate at acc [rad/s^2] up to max_vel
-    [rad/s], then brake at acc so as to stop half a tolerance short of the heading. The
-    velocity command is held for one period dt [s] while the base ramps toward it, so
-    the braking curve is evaluated at the heading error left after that period; never
-    slower than min_vel [rad/s] outside the tolerance (the base would not move).
+    the bang-bang profile: the fastest command (<= max_vel, and no more than the base
+    reaches within dt) that, held for the period dt [s] the command stays in force (one
+    control period, or the measured latency of a late loop) while the base ramps toward
+    it at acc [rad/s^2], can still be braked at acc to stop half a tolerance short of
+    the heading (held_turn). Never slower than min_vel [rad/s] outside the tolerance (the
+    base would not move), unless min_vel held for dt would carry the heading past the far
+    edge of the tolerance: a late loop at min_vel would then turn back and forth across
+    it until move_base gives up.
     """
     e = abs(err)
     w = abs(vth) if vth * err > 0 else 0.0          # current speed toward the heading
-    left = max(0.0, e - 0.5 * tolerance - w * dt)   # what is left after this period
-    v = min(max_vel, math.sqrt(2.0 * acc * left), w + acc * dt)
-    return math.copysign(max(min_vel, v), err)
+    target = max(0.0, e - 0.5 * tolerance)
+    lo, hi = 0.0, min(max_vel, w + acc * dt)        # no faster than the base reaches within dt
+    if held_turn(hi, w, acc, dt) > target:
+        for _ in range(40):                         # held_turn grows with v: bisection
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if held_turn(mid, w, acc, dt) <= target else (lo, mid)
+    else:
+        lo = hi
+    floor = min_vel if held_turn(min_vel, w, acc, dt) <= e + tolerance else 0.0
+    return math.copysign(max(floor, lo), err)
 
 
 # -- control latency ------------------------------------------------------------------
@@ -1156,7 +1177,7 @@ class DWAPlanner(HeldPlan):
     def _stop_and_rotate(self, pose, velocity, costmap):
         cfg = self.config
         err = wrap_angle(self.goal_yaw - pose[2])
-        dt = cfg.sim_period
+        dt = self.latency   # each command stays in force this long (a late loop: longer)
         if abs(err) <= cfg.yaw_goal_tolerance:
             # base_local_planner: the goal counts only once the robot has stopped there;
             # declaring it while still turning lets the heading coast past the tolerance.
