@@ -463,8 +463,12 @@ def drive_goal(p, world, pair, limit=None, trace=0.0, log=None):
             end = out.end
             break
         sim.command("robot", *(out.cmd if out.cmd is not None else (0.0, 0.0, 0.0)))
+        hits = st.collisions
         for _ in range(sub):
             sim.step(SIM_DT)
+        if trace and st.collisions > hits:
+            print(f"    t={t:5.1f} COLLISION at pose=({st.pose[0]:.2f}, {st.pose[1]:.2f}, {st.pose[2]:.2f}) "
+                  f"mode={mode} cmd={out.cmd} hit={st.last_hit}", flush=True)
         cycle += 1
     core.stop()
     if core.local_planner is not None:
