@@ -316,6 +316,34 @@ def test_boxed_in_backs_up_in_escape_mode(fp):
     assert not p.escaping and -0.2 < pose[0] <= -0.1
 
 
+@pytest.mark.parametrize("walls", ["ahead", "ahead and along the side", "ahead and behind"])
+def test_backs_up_off_a_touched_obstacle_but_not_onto_another(fp, walls):
+    """The nose on a wall's cells (the outline touches them, so every sample fails, the
+    backing one too): the robot backs up at escape_vel, as the real planner does, also
+    with its side on a wall it slides along. With a second wall 4 cm behind its rear it
+    does not: the real planner backs into it (its rule: back up even when the footprint
+    hits something), ours reports no command instead.
+
+    Regression (planning bench, willow-full-0.05 pair 11, navfn + TrajectoryPlannerROS dwa:
+    true): stuck between the walls of a doorway for 80 s, the robot backed at -0.1 m/s
+    into the wall behind it (1 collision; astar pair 1 and dijkstra pair 16 the same)."""
+    m = _costmap()
+    _box(m, 0.36, -1.0, 0.5, 1.0)                  # wall ahead, on the front edge's cells
+    if walls == "ahead and behind":
+        _box(m, -0.55, -1.0, -0.40, 1.0)           # rear edge at -0.36: 4 cm of room
+    if walls == "ahead and along the side":
+        _box(m, -1.5, 0.31, 0.5, 0.45)             # on the left edge's cells, all along
+    p = _planner(fp)
+    p.set_plan(np.column_stack([np.full(30, 0.0), np.linspace(0.0, 1.5, 30)]), 0.0)
+    r = p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
+    assert r.n_valid == 0 and r.mode == "escape"
+    if walls == "ahead and behind":
+        assert not r.ok and r.cmd == (0.0, 0.0, 0.0) and "would drive the rear onto an obstacle" in r.reason
+        assert not p.escaping
+    else:
+        assert r.ok and r.cmd == (-0.1, 0.0, 0.0) and p.escaping
+
+
 def test_no_way_to_the_plan_fails(fp):
     """The robot walled in all round with the plan outside: no command, not even backing up."""
     m = _costmap()

@@ -56,12 +56,14 @@ min(max_vel_theta, max(min_in_place_vel_theta, |error|)) within the acceleration
 window and sqrt(2 acc_lim_theta |error|) (rotateToGoal), every command checked as a
 trajectory; the goal is reached once the heading is within yaw_goal_tolerance.
 
-Backing up in escape mode is commanded even when its trajectory meets an obstacle
-(only a trajectory with no way to the plan, cost -2, is refused), as in the real
-planner: the outline check fails for every sample, the backing one too, as soon as
-the robot's current outline touches a lethal cell.
+Backing up in escape mode is commanded even when its trajectory meets an obstacle, as
+in the real planner: the outline check fails for every sample, the backing one too, as
+soon as the robot's current outline touches a lethal cell. It is refused where there is
+no way to the plan (cost -2), as in the real planner, and where a lethal cell lies behind
+the rear edge within the back-up's reach (backs_onto_obstacle), where the real planner
+backs into it.
 
-Where this differs from the real node: the goal is the plan's last point (the real node
+Where else this differs from the real node: the goal is the plan's last point (the real node
 takes the last point of the windowed plan: the same whenever the goal is in the local
 costmap); at the goal only the distance grids are rebuilt (the real node runs a whole
 sampling cycle there too, for its side effects); a robot with no plan point within 1 m
@@ -439,6 +441,24 @@ def _outline_cells(costmap, polygon, pose):
     vx, vy, _ = world_to_cells(costmap, px, py)
     xs, ys, valid = bresenham(vx, vy, np.roll(vx, -1), np.roll(vy, -1))
     return xs[valid], ys[valid]
+
+
+def backs_onto_obstacle(costmap, polygon, pose, distance):
+    """Whether backing up distance [m] from pose would drive the footprint's rear edge
+    onto a lethal cell: one whose centre lies in the strip behind the rear edge, that
+    deep, and a cell narrower on each side than the footprint (a wall the robot's side
+    touches and slides along is not in the way)."""
+    res = costmap.resolution
+    rows, cols = np.nonzero(costmap.data == LETHAL_OBSTACLE)
+    if len(rows) == 0:
+        return False
+    dx = costmap.origin_x + (cols + 0.5) * res - pose[0]
+    dy = costmap.origin_y + (rows + 0.5) * res - pose[1]
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    rx, ry = dx * c + dy * s, -dx * s + dy * c          # in the robot's frame
+    rear = float(polygon[:, 0].min())
+    side_lo, side_hi = float(polygon[:, 1].min()) + res, float(polygon[:, 1].max()) - res
+    return bool(((rx < rear) & (rx >= rear - distance - 0.5 * res) & (ry > side_lo) & (ry < side_hi)).any())
 
 
 def footprint_cells(costmap, polygon, pose):
@@ -1110,11 +1130,20 @@ class TrajectoryPlanner(HeldPlan):
             if sbest is not None:
                 self._after_choice(pose, rs.samples[sbest], swapped=True)
                 return self._result(rs, sbest, n_valid, n_samples)
-        # Nothing legal: back up at escape_vel, even into an obstacle, unless there is no way
-        # to the plan from there; enter escape mode.
+        # Nothing legal: back up at escape_vel, even when the outline already touches an
+        # obstacle (the real planner's rule: then every sample fails, this one too), but
+        # not onto a lethal cell behind the robot (not the real rule: the real planner
+        # backs into it); nor where there is no way to the plan. Enter escape mode.
         rb = self._rollout(cfg, pose, velocity, np.array([(cfg.escape_vel, 0.0, 0.0)]), costmap, self.grids,
                            self.polygon, biases)
         n_samples += 1
+        back = rb.points(0)
+        if rb.cost[0] == COLLIDES and backs_onto_obstacle(costmap, self.polygon, pose,
+                                                          math.hypot(*(back[-1, :2] - pose[:2]))):
+            return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
+                             "footprint off lethal and unknown cells with a clear way to the plan, and backing up "
+                             "at escape_vel would drive the rear onto an obstacle",
+                             n_valid=0, n_samples=n_samples, mode="escape")
         self._reset_stuck_if_moved(pose)
         if not self.escaping and rb.cost[0] > NO_WAY:
             self.escape_pose = tuple(float(v) for v in pose)
