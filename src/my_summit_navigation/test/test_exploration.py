@@ -20,8 +20,8 @@ def corridor_world():
     return g
 
 
-def step(e, now, pose, grid):
-    return e.step(now, pose, grid, RES, (0.0, 0.0))
+def step(e, now, pose, grid, stamp=None):
+    return e.step(now, pose, grid, RES, (0.0, 0.0), stamp)
 
 
 def test_sends_the_cheapest_goal_then_keeps_it():
@@ -134,20 +134,18 @@ def test_empty_rounds_count_costmaps_not_rounds():
     count: the end needs EMPTY_ROUNDS costmaps without a frontier."""
     g = corridor_world()
     g[g == -1] = 100
+    pose = (0.5, 1.0, 0.0)
     e = ex.Explore(PARAMS)
-    same = [step_stamped(e, 3.0 + 0.1 * k, g, 1.0) for k in range(3 * ex.EMPTY_ROUNDS)]
+    same = [step(e, 3.0 + 0.1 * k, pose, g, 1.0) for k in range(3 * ex.EMPTY_ROUNDS)]
     assert all(r.over is None for r in same) and e.empty_rounds == 1
     assert sum("looking again" in r.logs[0][1] for r in same if r.logs) == 1   # said once
-    later = [step_stamped(e, 10.0 + k, g, 2.0 + k) for k in range(ex.EMPTY_ROUNDS - 1)]
+    later = [step(e, 10.0 + k, pose, g, 2.0 + k) for k in range(ex.EMPTY_ROUNDS - 1)]
     assert [r.over for r in later] == [None] * (ex.EMPTY_ROUNDS - 2) + ["no frontiers left"]
     # a frontier found in between starts the count again, the same stamp included
     e = ex.Explore(PARAMS)
-    step_stamped(e, 0.0, g, 1.0)
-    assert step_stamped(e, 1.0, corridor_world(), 2.0).send is not None and e.empty_rounds == 0
+    step(e, 0.0, pose, g, 1.0)
+    assert step(e, 1.0, pose, corridor_world(), 2.0).send is not None and e.empty_rounds == 0
     e.goal_done(1, ex.SUCCEEDED)
-    step_stamped(e, 2.0, g, 2.0)
+    step(e, 2.0, pose, g, 2.0)
     assert e.empty_rounds == 1
 
-
-def step_stamped(e, now, grid, stamp):
-    return e.step(now, (0.5, 1.0, 0.0), grid, RES, (0.0, 0.0), stamp)

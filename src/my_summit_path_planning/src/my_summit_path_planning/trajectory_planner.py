@@ -94,7 +94,7 @@ import numpy as np
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from .dwa import DWAResult, HeldPlan
 from .params import ParamError
-from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.geometry import inverse, transform_points, wrap_angle
 from summit_nav_common.jit import njit
 
 PRUNE_DIST = 1.0            # [m] prunePlan drops plan points until one this near the robot
@@ -452,10 +452,8 @@ def backs_onto_obstacle(costmap, polygon, pose, distance):
     rows, cols = np.nonzero(costmap.data == LETHAL_OBSTACLE)
     if len(rows) == 0:
         return False
-    dx = costmap.origin_x + (cols + 0.5) * res - pose[0]
-    dy = costmap.origin_y + (rows + 0.5) * res - pose[1]
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    rx, ry = dx * c + dy * s, -dx * s + dy * c          # in the robot's frame
+    centres = np.column_stack(costmap.map_to_world(cols, rows))
+    rx, ry = transform_points(centres, inverse(pose)).T          # in the robot's frame
     rear = float(polygon[:, 0].min())
     side_lo, side_hi = float(polygon[:, 1].min()) + res, float(polygon[:, 1].max()) - res
     return bool(((rx < rear) & (rx >= rear - distance - 0.5 * res) & (ry > side_lo) & (ry < side_hi)).any())
@@ -1155,7 +1153,7 @@ class TrajectoryPlanner(HeldPlan):
                              "at escape_vel leads where no way to the plan is clear",
                              n_valid=0, n_samples=n_samples, mode="escape")
         cost = 1.0 if rb.cost[0] == COLLIDES else float(rb.cost[0])
-        return DWAResult(cmd=(float(cfg.escape_vel), 0.0, 0.0), trajectory=rb.points(0), n_valid=n_valid,
+        return DWAResult(cmd=(float(cfg.escape_vel), 0.0, 0.0), trajectory=back, n_valid=n_valid,
                          n_samples=n_samples, cost=cost, mode="escape")
 
     def _ahead_goal_dist(self, r, i, costmap):
