@@ -344,6 +344,22 @@ def test_backs_up_off_a_touched_obstacle_but_not_onto_another(fp, walls):
         assert r.ok and r.cmd == (-0.1, 0.0, 0.0) and p.escaping
 
 
+def test_escape_mode_ends_on_a_cycle_that_refuses_the_back_up(fp):
+    """Escape mode ends once the robot has moved escape_reset_dist from where it began,
+    also on a cycle that refuses the back-up. The refusal of a back-up onto a wall behind
+    first returned before that check, so a robot that had backed far enough and was then
+    refused on every cycle stayed in escape mode (no forward samples) for good."""
+    m = _costmap()
+    _box(m, 0.36, -1.0, 0.5, 1.0)                  # wall ahead, on the front edge's cells
+    _box(m, -0.55, -1.0, -0.40, 1.0)               # and 4 cm behind the rear edge
+    p = _planner(fp)
+    p.set_plan(np.column_stack([np.full(30, 0.0), np.linspace(0.0, 1.5, 30)]), 0.0)
+    p.escaping, p.escape_pose = True, (0.3, 0.0, 0.0)   # backed 0.3 m since escape began
+    r = p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
+    assert not r.ok and "would drive the rear onto an obstacle" in r.reason
+    assert not p.escaping
+
+
 def test_no_way_to_the_plan_fails(fp):
     """The robot walled in all round with the plan outside: no command, not even backing up."""
     m = _costmap()

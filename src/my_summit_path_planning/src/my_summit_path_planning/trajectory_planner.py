@@ -1136,22 +1136,23 @@ class TrajectoryPlanner(HeldPlan):
                            self.polygon, biases)
         n_samples += 1
         back = rb.points(0)
-        if rb.cost[0] == COLLIDES and backs_onto_obstacle(costmap, self.polygon, pose,
-                                                          math.hypot(*(back[-1, :2] - pose[:2]))):
-            return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
-                             "footprint off lethal and unknown cells with a clear way to the plan, and backing up "
-                             "at escape_vel would drive the rear onto an obstacle",
-                             n_valid=0, n_samples=n_samples, mode="escape")
+        if rb.cost[0] == NO_WAY:
+            refused = "leads where no way to the plan is clear"
+        elif rb.cost[0] == COLLIDES and backs_onto_obstacle(costmap, self.polygon, pose,
+                                                            math.hypot(*(back[-1, :2] - pose[:2]))):
+            refused = "would drive the rear onto an obstacle"
+        else:
+            refused = None
+        # the stuck flags and escape mode follow the robot's motion whatever this cycle gives
         self._reset_stuck_if_moved(pose)
-        if not self.escaping and rb.cost[0] > NO_WAY:
+        if not self.escaping and refused is None:
             self.escape_pose = tuple(float(v) for v in pose)
             self.escaping = True
         self._maybe_end_escape(pose)
-        if rb.cost[0] == NO_WAY:
+        if refused is not None:
             return DWAResult(ok=False, reason=f"no legal trajectory: of {n_samples} samples none keeps the "
                              "footprint off lethal and unknown cells with a clear way to the plan, and backing up "
-                             "at escape_vel leads where no way to the plan is clear",
-                             n_valid=0, n_samples=n_samples, mode="escape")
+                             f"at escape_vel {refused}", n_valid=0, n_samples=n_samples, mode="escape")
         cost = 1.0 if rb.cost[0] == COLLIDES else float(rb.cost[0])
         return DWAResult(cmd=(float(cfg.escape_vel), 0.0, 0.0), trajectory=back, n_valid=n_valid,
                          n_samples=n_samples, cost=cost, mode="escape")
