@@ -21,6 +21,9 @@ beside each time. Sections:
               BAG_RATE), seeds 1-5: online aligned ATE, CPU per filter update, peak RSS
   slam_bag_peer (only with --only slam_bag_peer --gmapping EXE [--gmapping-setup SETUP]) the
               same on another slam_gmapping executable, e.g. the real gmapping as the oracle
+  slam_replay_peer (only with --only slam_replay_peer --gmapping-replay EXE [--gmapping-replay-setup
+              SETUP]) the real gmapping's filter seeded (its slam_gmapping_replay) and ours on
+              slam_bag's bags, seeds 1-10 each (bench_slam_replay.py): the spread over seeds
   slam_sim    slam_gmapping (ROS node, course parameters, 30 particles) over the tour of
               the built-in world: ATE vs ground truth, map precision / recall, CPU per
               simulated second, peak RSS; one profiled tour for where the node's time goes
@@ -260,6 +263,22 @@ def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS, node=None, node_se
     return res
 
 
+REPLAY_SEEDS = tuple(range(1, 11))   # one live run per seed cannot show a spread of 0.15-3 m on ACES
+
+
+def bench_slam_replay(exe, setup, logs=None, seeds=REPLAY_SEEDS):
+    """bench_slam_replay.py on each of `logs` (names, default intel and aces): the real
+    gmapping's seeded player `exe` (setup: the bash file its environment needs) and ours."""
+    res = {"logs": {}, "replay": exe}
+    for name in logs or list(CARMEN_LOGS):
+        res["logs"][name] = _run_script(
+            "my_summit_mapping", "bench_slam_replay.py",
+            [os.path.join(DATA, "carmen", CARMEN_LOGS[name]), "--replay", exe, "--seeds"] + [str(s) for s in seeds]
+            + ["--out", os.path.join(OUT, f"slam_replay_{name}")] + (["--setup", setup] if setup else []),
+            f"bench_slam_replay_{name}.json")
+    return res
+
+
 LESSON_MAX_URANGE = (2.0, 7.0)   # [m] the course's maxUrange lesson: 2.0 degrades the map, 7.0 does not
 LESSON_SIM_SEEDS = (0, 1, 2)
 
@@ -412,6 +431,7 @@ def bench_e2e():
 # The sections that run another executable (the real node) in ours' place: section ->
 # (its option, whose --OPTION-setup goes with it; what the executable is).
 PEER_SECTIONS = {"slam_bag_peer": ("gmapping", "the real gmapping's slam_gmapping"),
+                 "slam_replay_peer": ("gmapping-replay", "the real gmapping's slam_gmapping_replay"),
                  "planning_peer": ("move-base", "the real move_base")}
 
 
@@ -427,6 +447,10 @@ def main():
                     help="slam_bag_peer: the other slam_gmapping executable (e.g. the real gmapping's)")
     ap.add_argument("--gmapping-setup", metavar="SETUP_BASH",
                     help="slam_bag_peer: a setup.bash the other executable's environment needs")
+    ap.add_argument("--gmapping-replay", metavar="EXECUTABLE",
+                    help="slam_replay_peer: the real gmapping's seeded player slam_gmapping_replay")
+    ap.add_argument("--gmapping-replay-setup", metavar="SETUP_BASH",
+                    help="slam_replay_peer: a setup.bash the player's environment needs")
     ap.add_argument("--move-base", metavar="EXECUTABLE",
                     help="planning_peer: the other move_base executable (e.g. the real move_base's)")
     ap.add_argument("--move-base-setup", metavar="SETUP_BASH",
@@ -467,6 +491,10 @@ def main():
         "slam_bag": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate),
         "slam_bag_peer": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate, node=os.path.abspath(args.gmapping),
                                                 node_setup=args.gmapping_setup and os.path.abspath(args.gmapping_setup)),
+        "slam_replay_peer": lambda: bench_slam_replay(os.path.abspath(args.gmapping_replay),
+                                                      args.gmapping_replay_setup
+                                                      and os.path.abspath(args.gmapping_replay_setup),
+                                                      args.carmen_logs),
         "slam_sim": lambda: bench_slam_sim(args.runs),
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "planning": lambda: bench_planning(args.runs),

@@ -38,6 +38,9 @@ SECTIONS = {
                 "real gmapping node is evaluated",
     "slam_bag_peer": ("the real gmapping (or any slam_gmapping-compatible executable, given with --gmapping) "
                       "live on the same bags, parameters, seeds and scoring as slam_bag: the oracle for its targets"),
+    "slam_replay_peer": ("the real gmapping's filter, seeded (its package's slam_gmapping_replay), and ours "
+                         "on slam_bag's bags with the same seeds 1-10: the spread over seeds a few live runs "
+                         "cannot show"),
     "slam_sim": ("slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour; "
                  "where its time goes (one profiled tour)"),
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping; the live node's CPU",
@@ -191,6 +194,25 @@ def rows_slam_bag_peer(res):
                f"odometry drift seeds {_seeds(r)} (its filter unseeded): online aligned ATE median (worst)",
             "... CPU per filter update median (worst); updates done / expected per seed (fewer: it "
             "fell behind the bag); node CPU; peak RSS")
+    return out
+
+
+def rows_slam_replay_peer(res):
+    """Both filters' online ATE over the same seeds: no targets (the real one is the yardstick)."""
+    out = []
+    for name, r in res["logs"].items():
+        seeds = [x["seed"] for x in r["runs"]]
+        span = f"seeds {seeds[0]}-{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) else \
+            "seeds " + ", ".join(map(str, seeds))
+        for who, label in (("real", f"the real gmapping's filter ({os.path.basename(r['replay'])}, seeded)"),
+                           ("ours", "ours (slam_bag_offline's replay: what the live node does)")):
+            s = r[who]
+            ates = [x[who]["ate_online_m"] for x in r["runs"]]
+            out.append(row(f"{label}, CARMEN {name} bag, {span} (filter seed = drift seed): online aligned ATE "
+                           "median (worst; best); CPU per update",
+                           f"{s['median_ate_online_m']:.3f} m ({s['worst_ate_online_m']:.3f}; "
+                           f"{s['best_ate_online_m']:.3f}); {s['median_cpu_ms_per_update']:.0f} ms",
+                           {**s, "runs_ate_online_m": ates}))
     return out
 
 
@@ -515,7 +537,7 @@ def rows_e2e(res):
 
 
 ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_carmen, "slam_bag": rows_slam_bag,
-        "slam_bag_peer": rows_slam_bag_peer, "slam_sim": rows_slam_sim,
+        "slam_bag_peer": rows_slam_bag_peer, "slam_replay_peer": rows_slam_replay_peer, "slam_sim": rows_slam_sim,
         "amcl": rows_amcl, "planning": rows_planning,
         "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore,
         "patrol": rows_patrol,
@@ -646,6 +668,7 @@ RENDER_COMMAND = "make bench-page"
 
 
 MEASURE_ARGS = {"slam_bag_peer": " --gmapping EXECUTABLE [--gmapping-setup SETUP_BASH]",
+                "slam_replay_peer": " --gmapping-replay EXECUTABLE [--gmapping-replay-setup SETUP_BASH]",
                 "planning_peer": " --move-base EXECUTABLE [--move-base-setup SETUP_BASH]"}
 
 

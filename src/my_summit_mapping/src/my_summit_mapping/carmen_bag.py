@@ -20,6 +20,7 @@ the filter exactly what the live node gets from the bag. `write_bag` / `read_bag
 them into a bag and back (rosbag and the message classes are imported there, so the pure
 part is usable without ROS).
 """
+import copy
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -93,8 +94,11 @@ def _yaw_quaternion(q, yaw):
     q.z, q.w = yaw_to_quaternion_zw(yaw)
 
 
-def write_bag(scans: BagScans, path: str) -> None:
-    """Write `scans` to the rosbag `path` (uncompressed); same scans -> same bytes."""
+def write_bag(scans: BagScans, path: str, mount_in_tf: bool = False) -> None:
+    """Write `scans` to the rosbag `path` (uncompressed); same scans -> same bytes.
+
+    mount_in_tf: also put base_link -> base_laser into every /tf message, stamped as it, for
+    readers that take /tf only (the real gmapping's slam_gmapping_replay)."""
     import rosbag
     import rospy
     from geometry_msgs.msg import PoseStamped, TransformStamped
@@ -121,7 +125,13 @@ def write_bag(scans: BagScans, path: str) -> None:
             tf.header.frame_id, tf.child_frame_id = ODOM_FRAME, BASE_FRAME
             tf.transform.translation.x, tf.transform.translation.y = x, y
             _yaw_quaternion(tf.transform.rotation, yaw)
-            bag.write("/tf", TFMessage(transforms=[tf]), stamp)
+            transforms = [tf]
+            if mount_in_tf:
+                moved = TransformStamped(header=copy.deepcopy(mount.header), child_frame_id=LASER_FRAME,
+                                         transform=mount.transform)
+                moved.header.stamp = stamp
+                transforms.append(moved)
+            bag.write("/tf", TFMessage(transforms=transforms), stamp)
             scan = LaserScan()
             scan.header.seq = k
             scan.header.stamp = stamp

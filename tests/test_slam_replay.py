@@ -1,0 +1,89 @@
+"""bench_slam_replay.py: the real gmapping's seeded player read back (its debug log, the
+online estimate made from its updates), the bag it reads, and its bad input."""
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCRIPTS = os.path.join(WS, "src", "my_summit_mapping", "scripts")
+RUNNER = os.path.join(SCRIPTS, "bench_slam_replay.py")
+INTEL = os.path.join(WS, "data", "carmen", "intel-corrected.log.gz")
+sys.path.insert(0, SCRIPTS)
+
+
+def test_player_log_gives_each_best_pose_the_scan_of_its_update():
+    """The player prints "update frame N" (GridSlamProcessor, stdout) before the node's
+    ROS_DEBUG "new best pose" (coloured by rosconsole); other lines interleave."""
+    import bench_slam_replay as bsr
+    text = ("update frame 0\nLaser Pose= 0.9 -0.2 -0.46\nRegistering First Scan\n"
+            "\x1b[32mnew best pose: 0.897 -0.181 -0.463\x1b[0m\n\x1b[32m  21.917 -32.728 -1.477\x1b[0m\n"
+            "update frame 3\nupdate ld=0.2 ad=0.1\nneff= 29\n*************RESAMPLE***************\n"
+            "\x1b[32mnew best pose: 1.000 -2.500 3.100\x1b[0m\n")
+    frames, poses = bsr.parse_player_log(text)
+    assert frames.tolist() == [0, 3]
+    assert poses.tolist() == [[0.897, -0.181, -0.463], [1.0, -2.5, 3.1]]
+    with pytest.raises(ValueError, match="debug output"):
+        bsr.parse_player_log("update frame 0\n")
+    with pytest.raises(ValueError, match="before any 'update frame'"):
+        bsr.parse_player_log("new best pose: 1 2 3\n")
+
+
+def test_online_estimate_from_updates_holds_each_correction_until_the_next_update():
+    """The node tracks a laser frame turned by c against the base. At an update the online
+    estimate is the best pose (turned back to the base); until the next update it is that
+    update's correction (map -> odom) applied to the odometry, which drifts on meanwhile;
+    before the first update, the odometry."""
+    import bench_slam_replay as bsr
+    from summit_nav_common.geometry import compose, inverse
+    rng = np.random.default_rng(3)
+    truth = np.cumsum(rng.normal(0.0, 0.3, (12, 3)), axis=0)
+    odom = compose(np.cumsum(rng.normal(0.0, 0.05, (12, 3)), axis=0), truth)   # drift grows per scan
+    c = math.radians(-0.5)
+    frames = np.array([2, 5, 9])
+    best = compose(truth[frames], np.array([0.0, 0.0, c]))
+    online = bsr.online_from_updates(frames, best, odom, c)
+    np.testing.assert_allclose(online[frames], truth[frames], atol=1e-12)
+    correction = compose(truth[5], inverse(odom[5]))                  # map -> odom after scan 5's update
+    np.testing.assert_allclose(online[6:9], compose(correction, odom[6:9]), atol=1e-12)
+    assert np.abs(online[6:9, :2] - truth[6:9, :2]).max() > 0.01        # the drift since scan 5 shows
+    np.testing.assert_allclose(online[:2], odom[:2], atol=1e-12)
+
+
+def test_bag_for_the_player_carries_the_laser_mount_in_tf(tmp_path):
+    """slam_gmapping_replay reads /tf and /scan only, so base_link -> base_laser goes into
+    every /tf message as well; the bag reads back as the plain one."""
+    import rosbag
+    sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "src"))
+    from my_summit_mapping import carmen, carmen_bag
+    scans = carmen_bag.bag_scans(carmen.read_carmen(INTEL), seed=1)
+    scans = carmen_bag.BagScans(**{**scans.__dict__, "stamps": scans.stamps[:4], "ranges": scans.ranges[:4],
+                                   "odometry": scans.odometry[:4], "reference": scans.reference[:4],
+                                   "laser_offset": 0.25})
+    plain, mounted = str(tmp_path / "plain.bag"), str(tmp_path / "mounted.bag")
+    carmen_bag.write_bag(scans, plain)
+    carmen_bag.write_bag(scans, mounted, mount_in_tf=True)
+    with rosbag.Bag(mounted) as bag:
+        tfs = [m for _t, m, _s in bag.read_messages(topics=["/tf"])]
+    assert len(tfs) == 4
+    for msg in tfs:
+        pairs = {(t.header.frame_id, t.child_frame_id): t for t in msg.transforms}
+        mount = pairs[("base_link", "base_laser")]
+        assert mount.transform.translation.x == 0.25 and mount.header.stamp == pairs[("odom", "base_link")].header.stamp
+    a, b = carmen_bag.read_bag(plain), carmen_bag.read_bag(mounted)
+    np.testing.assert_array_equal(a.odometry, b.odometry)
+    assert a.laser_offset == b.laser_offset == 0.25
+
+
+@pytest.mark.parametrize("args, expect", [
+    ([INTEL, "--replay", "/no/such/player"], "--replay /no/such/player: not an executable file"),
+    ([INTEL, "--replay", "/bin/true", "--setup", "/no/such/setup.bash"], "--setup /no/such/setup.bash: no such file"),
+    (["/no/such/log.gz", "--replay", "/bin/true"], "/no/such/log.gz"),
+])
+def test_runner_bad_input_fails_with_the_reason(args, expect):
+    proc = subprocess.run([sys.executable, RUNNER] + args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          text=True, timeout=120)
+    assert proc.returncode == 2 and expect in proc.stdout, proc.stdout
