@@ -87,3 +87,27 @@ def test_runner_bad_input_fails_with_the_reason(args, expect):
     proc = subprocess.run([sys.executable, RUNNER] + args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                           text=True, timeout=120)
     assert proc.returncode == 2 and expect in proc.stdout, proc.stdout
+
+
+def test_replay_with_the_real_nodes_conventions_moves_cells_and_beams_as_it_does():
+    """slam_bag_offline.py --as-gmapping: the real node's beams start half an increment
+    before the scan's angle_min (GMapping::RangeSensor: -n/2 increments from the centre), its
+    cell borders lie at its map centre + delta/2 modulo delta (world2map rounds from the
+    centre); ours are at multiples of delta, so the odometry moves by the difference."""
+    import slam_bag_offline
+    sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "src"))
+    from my_summit_mapping import carmen, carmen_bag
+    scans = carmen_bag.bag_scans(carmen.read_carmen(INTEL), seed=1)
+    params = dict(delta=0.05, xmin=-27.0, xmax=29.0, ymin=-45.0, ymax=6.2)   # centre (1.0, -19.4)
+    moved, angles = slam_bag_offline.as_gmapping(scans, params)
+    shift = moved.odometry - scans.odometry
+    # a border of the real node's: centre + delta/2 (+ k delta); after the shift it is a multiple of delta
+    for axis, centre in ((0, 1.0), (1, -19.4)):
+        border = centre + 0.025 + 0.05 * 7
+        moved_border = border + shift[0, axis]
+        assert abs(moved_border / 0.05 - round(moved_border / 0.05)) < 1e-9
+        assert -0.05 < shift[0, axis] <= 0.0
+    assert np.all(shift[:, 2] == 0.0)
+    np.testing.assert_allclose(shift[:, :2], np.tile(shift[0, :2], (len(shift), 1)), atol=1e-12)
+    np.testing.assert_allclose(angles, slam_bag_offline.beam_angles(scans) - 0.5 * scans.angle_increment)
+    assert angles[0] == pytest.approx(math.radians(-90.5))

@@ -15,8 +15,17 @@ after some tens of updates, which the filter may amplify; the live ACES seeds 1-
 a seed's divergence (--updates N stops after N filter updates) or to see a figure's
 spread over many seeds.
 
+--as-gmapping replays with two conventions of the real slam_gmapping that move its result
+but not its quality (as_gmapping): its beams sit half an angle increment before the scan's
+own angles (GMapping::RangeSensor starts at -n/2 increments from the scan's centre), and its
+cell borders lie half a cell off multiples of delta from its map's centre. With one particle
+and no motion noise (--set particles=1 srr=0 srt=0 str=0 stt=0) the filter is deterministic,
+and this replay then follows the real node's live run (bench_slam_bag.py --node ... with the
+same --set) update for update: the oracle that the scan matcher, maps and likelihood are
+gmapping's.
+
 Usage: slam_bag_offline.py LOG [--seeds 1 2] [--updates N] [--set name=value ...]
-                               [--json PATH] [--profile PATH]
+                               [--json PATH] [--profile PATH] [--as-gmapping]
 """
 import argparse
 import cProfile
@@ -26,6 +35,7 @@ import resource
 import statistics
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -39,11 +49,27 @@ from my_summit_mapping.rbpf import RbpfSlam  # noqa: E402
 from my_summit_mapping.slam_config import SlamConfig  # noqa: E402
 
 
-def replay(scans, seed, overrides=None, max_updates=None):
-    """Feed scans (carmen_bag.BagScans) to RbpfSlam as the node does; a result dict."""
+def as_gmapping(scans, params):
+    """(scans, beam angles) with the real slam_gmapping's conventions (module docstring):
+    the odometry moved so that our cell borders (multiples of delta) fall where its do
+    (its map centre + half a cell, modulo delta; the online ATE does not see a shift of the
+    whole run), the beams turned back by half an increment."""
+    delta = params["delta"]
+    centre = np.array([(params["xmin"] + params["xmax"]) / 2.0, (params["ymin"] + params["ymax"]) / 2.0])
+    shift = -np.mod(centre + 0.5 * delta, delta)
+    odometry = scans.odometry.copy()
+    odometry[:, :2] += shift
+    return replace(scans, odometry=odometry), beam_angles(scans) - 0.5 * scans.angle_increment
+
+
+def replay(scans, seed, overrides=None, max_updates=None, gmapping_conventions=False):
+    """Feed scans (carmen_bag.BagScans) to RbpfSlam as the node does; a result dict.
+    gmapping_conventions: as the real node would (as_gmapping)."""
     params = node_params(scans, overrides)
     slam = RbpfSlam(SlamConfig.from_dict(params), np.random.default_rng(seed))
     angles = beam_angles(scans)
+    if gmapping_conventions:
+        scans, angles = as_gmapping(scans, params)
     laser = (float(scans.laser_offset), 0.0, 0.0)
     m2o = np.zeros((len(scans.stamps), 3))
     current = np.zeros(3)
@@ -98,6 +124,8 @@ def main(argv=None):
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE")
     parser.add_argument("--json", help="write the results as JSON to this path")
     parser.add_argument("--profile", help="cProfile the (first seed's) run into this .pstats path")
+    parser.add_argument("--as-gmapping", action="store_true",
+                        help="the real node's beam angles and cell borders (see the module docstring)")
     args = parser.parse_args(argv)
     overrides = parse_set(args.set)
     log = None if args.log.endswith(".bag") else carmen.read_carmen(args.log)
@@ -109,7 +137,7 @@ def main(argv=None):
         prof = cProfile.Profile() if args.profile and not results else None
         if prof:
             prof.enable()
-        r, _ = replay(scans, seed, overrides, args.updates)
+        r, _ = replay(scans, seed, overrides, args.updates, args.as_gmapping)
         if prof:
             prof.disable()
             prof.dump_stats(args.profile)
