@@ -204,8 +204,10 @@ def rows_slam_replay_peer(res):
         seeds = [x["seed"] for x in r["runs"]]
         span = f"seeds {seeds[0]}-{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) else \
             "seeds " + ", ".join(map(str, seeds))
-        for who, label in (("real", f"the real gmapping's filter ({os.path.basename(r['replay'])}, seeded)"),
-                           ("ours", "ours (slam_bag_offline's replay: what the live node does)")):
+        for who, label in (("real", f"the real gmapping's filter ({os.path.basename(r['replay'])}, seeded; CPU: "
+                                    "the whole player, its map updates too)"),
+                           ("ours", "ours (slam_bag_offline's replay: what the live node does; CPU: the filter "
+                                    "alone)")):
             s = r[who]
             ates = [x[who]["ate_online_m"] for x in r["runs"]]
             out.append(row(f"{label}, CARMEN {name} bag, {span} (filter seed = drift seed): online aligned ATE "

@@ -15,7 +15,9 @@ through the same SlamGMapping code as the live node. This script runs, for each 
     live run (online aligned ATE over every scan, my_summit_mapping.online_eval);
   - our filter on the same scans with filter seed S (slam_bag_offline.replay: what our live
     node does with that bag and seed, to the millimetre).
-Reported per seed and as median / worst: online ATE of both, CPU per update of both.
+Reported per seed and as median / worst: online ATE of both, CPU per update of both (the
+real one: the whole player process, its map updates every map_update_interval included;
+ours: the filter alone).
 
 Usage: bench_slam_replay.py LOG --replay EXE [--setup SETUP_BASH] [--seeds 1 2 ...]
                             [--json PATH] [--set name=value ...]
