@@ -33,7 +33,6 @@ import resource
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -83,16 +82,14 @@ def parse_player_log(text):
 
 
 def online_from_updates(frames, best_laser, odom_base, laser_yaw):
-    """Online estimate (K, 3) of the base at every scan: map -> odom of the last update at or
-    before each scan (best pose * odometry pose at that update^-1, both of the laser frame
-    the node tracks: base turned by laser_yaw [rad]) composed with the scan's odometry;
-    the identity before the first update."""
+    """Online estimate (K, 3) of the base at every scan, scored as a live run's
+    (online_eval.online_trajectory, with each scan's index as its stamp): map -> odom of
+    each update (best pose * odometry pose at that update^-1, both of the laser frame the
+    node tracks: base turned by laser_yaw [rad]) in effect from its scan until the next
+    update, composed with the scan's odometry; the identity before the first update."""
     odom = np.asarray(odom_base, float)
-    mount = np.array([0.0, 0.0, laser_yaw])
-    m2o = compose(best_laser, inverse(compose(odom[frames], mount)))
-    last = np.searchsorted(frames, np.arange(len(odom)), side="right") - 1
-    at_scan = np.where(last[:, None] >= 0, m2o[np.maximum(last, 0)], 0.0)
-    return compose(at_scan, odom)
+    m2o = compose(best_laser, inverse(compose(odom[frames], np.array([0.0, 0.0, laser_yaw]))))
+    return online_eval.online_trajectory(np.arange(len(odom)), odom, frames, m2o)
 
 
 def centered_laser_yaw(scans):
@@ -122,16 +119,16 @@ def run_player(exe, setup, bag, seed, params, log_path):
                 time.sleep(0.1)
         for key, value in params.items():
             master.setParam(f"/{NODE_NAME}/{key}", value)
-        with tempfile.NamedTemporaryFile("w", suffix=".conf", delete=False) as conf:
-            conf.write(ROSCONSOLE_CONFIG)
+        conf = os.path.join(os.path.dirname(log_path), "rosconsole.conf")
+        with open(conf, "w") as f:
+            f.write(ROSCONSOLE_CONFIG)
         child_env = dict(sourced_env(setup, env) if setup else env, ROS_MASTER_URI=env["ROS_MASTER_URI"],
-                         ROSCONSOLE_CONFIG_FILE=conf.name, ROSCONSOLE_FORMAT="${message}")
+                         ROSCONSOLE_CONFIG_FILE=conf, ROSCONSOLE_FORMAT="${message}")
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         with open(log_path, "w") as log:
             done = subprocess.run([exe, "--bag_filename", bag, "--seed", str(seed), "--on_done", "true"],
                                   stdout=log, stderr=subprocess.STDOUT, env=child_env, timeout=RUN_TIMEOUT)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        os.unlink(conf.name)
         if done.returncode != 0:
             raise RuntimeError(f"{exe} ended with exit status {done.returncode}; see {log_path}")
     finally:
@@ -141,7 +138,7 @@ def run_player(exe, setup, bag, seed, params, log_path):
     return text, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def run_seed(log_path, log, seed, exe, setup, overrides, out_dir):
+def run_seed(log, seed, exe, setup, overrides, out_dir):
     """Both filters on the bag of `seed`; a dict of their figures."""
     import slam_bag_offline
     scans = carmen_bag.bag_scans(log, seed)
@@ -202,7 +199,7 @@ def main(argv=None):
           f"{'resamples':>9} {'odom ATE':>9}")
     for seed in args.seeds:
         try:
-            r = run_seed(args.log, log, seed, args.replay, args.setup, overrides, args.out)
+            r = run_seed(log, seed, args.replay, args.setup, overrides, args.out)
         except (OSError, ValueError, RuntimeError, subprocess.TimeoutExpired) as e:
             print(f"bench_slam_replay: error: seed {seed}: {e}", file=sys.stderr)
             return 1

@@ -67,9 +67,7 @@ def replay(scans, seed, overrides=None, max_updates=None, gmapping_conventions=F
     gmapping_conventions: as the real node would (as_gmapping)."""
     params = node_params(scans, overrides)
     slam = RbpfSlam(SlamConfig.from_dict(params), np.random.default_rng(seed))
-    angles = beam_angles(scans)
-    if gmapping_conventions:
-        scans, angles = as_gmapping(scans, params)
+    scans, angles = as_gmapping(scans, params) if gmapping_conventions else (scans, beam_angles(scans))
     laser = (float(scans.laser_offset), 0.0, 0.0)
     m2o = np.zeros((len(scans.stamps), 3))
     current = np.zeros(3)
