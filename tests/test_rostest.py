@@ -59,6 +59,9 @@ def rostest_param(path):
 def test_rostest(test_file, tmp_path):
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path))
     rc, out = run_bounded(rostest_command(test_file), env, TIMEOUT)
+    # The whole output beside the nodes' logs: the failure message below shows only its
+    # end, and pytest keeps the last runs' tmp_path for a look after the fact.
+    (tmp_path / "rostest.out").write_text(out)
     if rc is None:
         pytest.fail(f"rostest {test_file} did not finish within {TIMEOUT} s\n{out[-6000:]}")
     assert rc == 0 and "RESULT: SUCCESS" in out, out[-8000:]

@@ -15,7 +15,7 @@ import unittest
 import numpy as np
 import rospy
 import rostest
-from geometry_msgs.msg import Pose2D
+from geometry_msgs.msg import Pose2D, PoseWithCovarianceStamped
 from nav_msgs.msg import Path
 
 from summit_xl_sim.srv import AddBox
@@ -52,6 +52,7 @@ class MoveBaseBox(unittest.TestCase):
         m_in_w = lu.map_in_world()
         truth = mt.Truth(m_in_w)
         plan = lu.Latest("/move_base/NavfnROS/plan", Path)
+        amcl = lu.Latest("/amcl_pose", PoseWithCovarianceStamped)
         lu.wait_clock()
         c = mt.client()
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
@@ -71,8 +72,8 @@ class MoveBaseBox(unittest.TestCase):
         wx, wy = mt.map_to_world(m_in_w, bx, by)
         resp = add_box("box_on_path", Pose2D(wx, wy, heading + m_in_w[2]), size, size)
         self.assertTrue(resp.success, resp.message)
-        print(f"BOX at map ({bx:.2f}, {by:.2f}) = world ({wx:.2f}, {wy:.2f}), robot at ({robot[0]:.2f}, "
-              f"{robot[1]:.2f}), {math.hypot(bx - robot[0], by - robot[1]):.2f} m ahead")
+        rospy.loginfo(f"BOX at map ({bx:.2f}, {by:.2f}) = world ({wx:.2f}, {wy:.2f}), robot at ({robot[0]:.2f}, "
+                      f"{robot[1]:.2f}), {math.hypot(bx - robot[0], by - robot[1]):.2f} m ahead")
         state, text = mt.wait_result(c, max_sim)
         elapsed = (rospy.Time.now() - t0).to_sec()
         lu.sleep_sim(0.5)
@@ -81,9 +82,14 @@ class MoveBaseBox(unittest.TestCase):
         err_yaw = abs(lu.wrap(end[2] - goal[2]))
         track = np.array([(x, y) for _, x, y in truth.track])
         clearance = float(np.min(np.hypot(track[:, 0] - bx, track[:, 1] - by)))
-        print(f"MOVE_BASE_BOX state={state} time_to_goal_s={elapsed:.1f} final_xy_error_m={err_xy:.3f} "
-              f"final_yaw_error_rad={err_yaw:.3f} collisions={truth.collisions} "
-              f"min_centre_distance_to_box_m={clearance:.2f} text={text!r}")
+        # amcl's estimate against the truth: a failure from a lost localization shows here
+        loc_err = float("nan")
+        if amcl.msg is not None:
+            p = amcl.msg.pose.pose.position
+            loc_err = math.hypot(p.x - end[0], p.y - end[1])
+        rospy.loginfo(f"MOVE_BASE_BOX state={state} time_to_goal_s={elapsed:.1f} final_xy_error_m={err_xy:.3f} "
+                      f"final_yaw_error_rad={err_yaw:.3f} collisions={truth.collisions} "
+                      f"min_centre_distance_to_box_m={clearance:.2f} amcl_error_m={loc_err:.3f} text={text!r}")
         self.assertEqual(state, "SUCCEEDED", text)
         self.assertLessEqual(err_xy, xy_tol + AMCL_MARGIN)
         self.assertLessEqual(err_yaw, yaw_tol + AMCL_YAW_MARGIN)

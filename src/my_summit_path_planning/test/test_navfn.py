@@ -134,11 +134,18 @@ def test_start_in_inflation_zone_still_plans(footprint, make_static_costmap):
     assert not r.ok and "lethal" in r.reason
 
 
-def test_unreachable_goal():
+def test_unreachable_goal_names_the_start_s_free_region():
+    """The reason says how much the start can reach: the left 15 of 30 columns here (a
+    robot boxed in by stale marks shows as a few cells)."""
     cm = Costmap2D(30, 30, 0.1)
     cm.data[:, 15] = cv.LETHAL_OBSTACLE
     r = NavFn().make_plan(cm, (0.5, 0.5), (2.5, 2.5))
     assert not r.ok and "not reachable" in r.reason
+    assert "the start's free region: 450 cells, 4.50 m^2" in r.reason
+    cm.data[2:5, 2:5] = cv.LETHAL_OBSTACLE
+    cm.data[3, 3] = cv.FREE_SPACE
+    r = NavFn().make_plan(cm, (0.35, 0.35), (2.5, 2.5))
+    assert not r.ok and "the start's free region: 1 cells, 0.01 m^2" in r.reason
 
 
 @pytest.mark.parametrize("kind", ["navfn", "global_planner"])

@@ -638,7 +638,8 @@ class GlobalPlanner:
         if not reached:
             target = _nearest_reached(pot, costmap, goal, tol) if tol > 0 else None
             if target is None:
-                return GlobalPlanResult(reason=_why_unreachable(data[gc[1], gc[0]], cfg.allow_unknown, tol),
+                return GlobalPlanResult(reason=_why_unreachable(data[gc[1], gc[0]], cfg.allow_unknown, tol, pot,
+                                                                costmap.resolution),
                                         potential=self.potential)
             g_xy = (float(target[0]), float(target[1]))
 

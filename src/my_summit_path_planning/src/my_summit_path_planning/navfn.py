@@ -641,7 +641,8 @@ class NavFn:
         if pot[gc[1], gc[0]] >= POT_HIGH:
             target = _nearest_reached(pot, costmap, goal, tol) if tol > 0 else None
             if target is None:
-                return PlanResult(reason=_why_unreachable(data[gc[1], gc[0]], cfg.allow_unknown, tol),
+                return PlanResult(reason=_why_unreachable(data[gc[1], gc[0]], cfg.allow_unknown, tol, pot,
+                                                          costmap.resolution),
                                   potential=pot if cfg.visualize_potential else None)
         cells = gradient_path(pot, target)
         if cells is None or not _all_reached(pot, cells):
@@ -730,7 +731,11 @@ def _nearest_reached(pot, costmap, goal, tol):
     return int(xx.flat[k]), int(yy.flat[k])
 
 
-def _why_unreachable(goal_cost, allow_unknown, tol):
+def _why_unreachable(goal_cost, allow_unknown, tol, pot=None, resolution=None):
+    """Why no plan: the goal's cell, else the start's side. pot: the potential of the
+    failed search (every cell reachable from the start settled), for the size of the
+    start's free region: a few cells mean the robot is boxed in (e.g. by marks that
+    should have been cleared), a large one that the goal is cut off."""
     extra = f" and no reachable cell within default_tolerance {tol:.2f} m" if tol > 0 else ""
     if goal_cost == LETHAL_OBSTACLE:
         return "goal is in an obstacle (lethal cell)" + extra
@@ -738,4 +743,8 @@ def _why_unreachable(goal_cost, allow_unknown, tol):
         return "goal is too close to an obstacle (inscribed cell)" + extra
     if goal_cost == NO_INFORMATION and not allow_unknown:
         return "goal is in unknown space and allow_unknown is false" + extra
-    return "no path: the goal is not reachable from the start" + extra
+    region = ""
+    if pot is not None and resolution is not None:
+        n = int(np.count_nonzero(pot < POT_HIGH))
+        region = f" (the start's free region: {n} cells, {n * resolution ** 2:.2f} m^2)"
+    return "no path: the goal is not reachable from the start" + region + extra
