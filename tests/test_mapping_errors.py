@@ -4,10 +4,14 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import time
 
 import numpy as np
 import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
+from roslaunch_session import Roscore, stop_process_tree  # noqa: E402
 
 TIMEOUT = 60  # [s] wall for one launch
 GOOD_YAML = ("image: {image}\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
@@ -278,46 +282,33 @@ print("GOT MAP" if got else "NO MAP", flush=True)
 @pytest.mark.integration
 def test_slam_gmapping_survives_bad_scans(tmp_path):
     """Missing laser tf, NaN/inf ranges, a changed beam count: warnings, no crash, a map."""
-    port = free_port()
-    env = env_for(tmp_path, port)
     feeder = tmp_path / "feeder.py"
     feeder.write_text(SCAN_FEEDER)
-    core = subprocess.Popen(["roscore", "-p", str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
-                            env=env, start_new_session=True)
     slam = None
-    try:
-        import rosgraph
-        master = rosgraph.Master("/test_bad_scans", master_uri=env["ROS_MASTER_URI"])
+    # a wall-clock bound generous under load
+    with Roscore(env=env_for(tmp_path, 0), timeout=90.0, caller="/test_bad_scans") as core:
+        env, master = core.env, core.master
 
-        def wait_master(condition, what, timeout=90.0):  # wall-clock bound, generous under load
+        def wait_master(condition, what, timeout=90.0):
             deadline = time.monotonic() + timeout
             while time.monotonic() < deadline:
-                try:
-                    if condition():
-                        return
-                except Exception:  # master not up yet
-                    pass
+                if condition():
+                    return
                 time.sleep(0.2)
             pytest.fail(f"timed out waiting for {what}")
 
-        wait_master(lambda: master.getPid() > 0, "roscore")
-        slam = subprocess.Popen(["rosrun", "my_summit_mapping", "slam_gmapping", "_base_frame:=base_footprint",
-                                 "_map_update_interval:=0.5", "_particles:=5", "_xmin:=-5", "_ymin:=-5",
-                                 "_xmax:=5", "_ymax:=5"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                text=True, env=env, start_new_session=True)
-        wait_master(lambda: any(t == "/scan" for t, _ in master.getSystemState()[1]),
-                    "slam_gmapping to subscribe to /scan")
-        _, code, out = run(["/usr/bin/python3", str(feeder)], env)
-        assert "GOT MAP" in out, out[-3000:]
-        assert slam.poll() is None, "slam_gmapping died"
-    finally:
-        for p in (slam, core):
-            if p is not None and p.poll() is None:
-                os.killpg(p.pid, signal.SIGINT)
-                try:
-                    p.wait(timeout=15)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, signal.SIGKILL)
+        try:
+            slam = subprocess.Popen(["rosrun", "my_summit_mapping", "slam_gmapping", "_base_frame:=base_footprint",
+                                     "_map_update_interval:=0.5", "_particles:=5", "_xmin:=-5", "_ymin:=-5",
+                                     "_xmax:=5", "_ymax:=5"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                    text=True, env=env, start_new_session=True)
+            wait_master(lambda: any(t == "/scan" for t, _ in master.getSystemState()[1]),
+                        "slam_gmapping to subscribe to /scan")
+            _, code, out = run(["/usr/bin/python3", str(feeder)], env)
+            assert "GOT MAP" in out, out[-3000:]
+            assert slam.poll() is None, "slam_gmapping died"
+        finally:
+            stop_process_tree(slam, grace=15.0)
     log = slam.stdout.read()
     assert "no tf base_footprint <- laser for the laser mount yet" in log, log[-3000:]
     assert "the laser changed from" in log and "181" in log and "90" in log, log[-3000:]

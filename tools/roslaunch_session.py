@@ -97,6 +97,7 @@ def process_tree(root):
 
 class RoslaunchSession:
     """A roslaunch subprocess with its own master (port chosen here)."""
+    name = "the launch"
 
     def __init__(self, args, log=None, env=None):
         self.port = free_port()
@@ -120,6 +121,64 @@ class RoslaunchSession:
         """SIGINT the group (roslaunch's clean shutdown), wait up to grace [s], then
         SIGKILL the group and every process that was below roslaunch."""
         stop_process_tree(self.proc, grace)
+
+    def __exit__(self, *exc):
+        self.stop()
+        return False
+
+
+class Roscore:
+    """A roscore on a free port of its own, answering when entered, always stopped.
+
+        with Roscore(log=path, caller="/bench") as core:
+            core.master.setParam(...)   # rosgraph.Master on it
+            subprocess.run(cmd, env=core.env)   # core.env: env with its ROS_MASTER_URI
+
+    RuntimeError naming the port (and its log) when it ends or does not answer
+    within timeout [s wall].
+    """
+    name = "roscore"
+
+    def __init__(self, log=None, env=None, timeout=60.0, caller="/roscore_client"):
+        self.port = free_port()
+        self.env = dict(env or os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{self.port}")
+        self.log_path, self.timeout, self.caller = log, timeout, caller
+        self.proc = None
+        self.master = None
+
+    def start(self):
+        """Start it and wait until it answers; returns self."""
+        import rosgraph
+        out = open(self.log_path, "w") if self.log_path else subprocess.DEVNULL
+        try:
+            self.proc = subprocess.Popen(["roscore", "-p", str(self.port)], stdout=out, stderr=subprocess.STDOUT,
+                                         env=self.env, start_new_session=True)
+        finally:
+            if out is not subprocess.DEVNULL:
+                out.close()
+        self.master = rosgraph.Master(self.caller, master_uri=self.env["ROS_MASTER_URI"])
+        try:
+            wait_for(self._answers, self.timeout, f"roscore on port {self.port}", self)
+        except RuntimeError:
+            self.stop()
+            raise
+        return self
+
+    def _answers(self):
+        try:
+            self.master.getPid()
+            return True
+        except Exception:  # not up yet
+            return False
+
+    def alive(self):
+        """True while roscore runs."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def stop(self, grace=20.0):
+        stop_process_tree(self.proc, grace)
+
+    __enter__ = start
 
     def __exit__(self, *exc):
         self.stop()
@@ -180,11 +239,13 @@ def wait_for_sim_time_param(session, timeout=60.0):
 
 
 def wait_for(predicate, timeout, what, session=None, poll=0.05):
-    """Wait until predicate() is true; RuntimeError naming `what` on timeout or launch death."""
+    """Wait until predicate() is true; RuntimeError naming `what` on timeout or when
+    session (a RoslaunchSession or Roscore) ended."""
     end = time.monotonic() + timeout
     while not predicate():
         if session is not None and not session.alive():
-            raise RuntimeError(f"the launch ended while waiting for {what} (see {session.log_path})")
+            where = f" (see {session.log_path})" if session.log_path else ""
+            raise RuntimeError(f"{session.name} ended while waiting for {what}{where}")
         if time.monotonic() > end:
             raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
         time.sleep(poll)

@@ -209,15 +209,15 @@ def wait_for(pred, timeout, what, alive=()):
 def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None):
     """Play `bag` through slam_gmapping (ours, or node_cmd in the environment node_setup
     leaves) once; returns the result dict (see module docstring)."""
-    from roslaunch_session import free_port, stop_process_tree
+    from roslaunch_session import Roscore, stop_process_tree
     from my_summit_mapping import carmen_bag, online_eval
 
     scans = carmen_bag.read_bag(bag)
     params = node_params(scans, overrides)
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}")
-    os.environ["ROS_MASTER_URI"] = env["ROS_MASTER_URI"]   # rospy in this process
     logs = {k: os.path.join(out_dir, f"slam_bag_seed{seed}_{k}.log") for k in ("roscore", "node", "play")}
+    roscore = Roscore(log=logs["roscore"], timeout=START_TIMEOUT, caller="/bench_slam_bag")
+    env = roscore.env
+    os.environ["ROS_MASTER_URI"] = env["ROS_MASTER_URI"]   # rospy in this process
     procs = []
 
     def start(name, args, child_env=None):
@@ -228,18 +228,9 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
         return p
 
     try:
-        import rosgraph
         import rospy
-        core = start("roscore", ["roscore", "-p", str(port)])
-        master = rosgraph.Master("/bench_slam_bag", master_uri=env["ROS_MASTER_URI"])
-
-        def master_up():
-            try:
-                master.getPid()
-                return True
-            except Exception:  # not up yet
-                return False
-        wait_for(master_up, START_TIMEOUT, "roscore", [("roscore", core, logs["roscore"])])
+        core = roscore.start().proc
+        master = roscore.master
         master.setParam("/use_sim_time", True)
         for k, v in params.items():
             master.setParam(f"/{NODE_NAME}/{k}", v)
@@ -290,6 +281,7 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
     finally:
         for p in reversed(procs):
             stop_process_tree(p, grace=10.0)
+        roscore.stop(grace=10.0)
         try:
             import rospy
             rospy.signal_shutdown("bench_slam_bag: run over")

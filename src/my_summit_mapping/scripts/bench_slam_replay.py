@@ -33,7 +33,6 @@ import resource
 import statistics
 import subprocess
 import sys
-import time
 
 import numpy as np
 
@@ -45,7 +44,7 @@ sys.path.insert(0, HERE)
 
 from bench_slam_bag import NODE_NAME, node_params, parse_set  # noqa: E402
 from my_summit_mapping import carmen, carmen_bag, metrics, online_eval  # noqa: E402
-from roslaunch_session import sourced_env  # noqa: E402
+from roslaunch_session import Roscore, sourced_env  # noqa: E402
 from summit_nav_common.geometry import compose, inverse  # noqa: E402
 
 # gmapping's ROS_DEBUG lines (package "gmapping" logs as ros.gmapping) and GridSlamProcessor's
@@ -100,29 +99,14 @@ def centered_laser_yaw(scans):
 
 def run_player(exe, setup, bag, seed, params, log_path):
     """One seeded run of the real player on `bag`; (its log text, CPU seconds)."""
-    import rosgraph
-    from roslaunch_session import free_port, stop_process_tree
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}")
-    core = subprocess.Popen(["roscore", "-p", str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
-                            env=env, start_new_session=True)
-    try:
-        master = rosgraph.Master("/bench_slam_replay", master_uri=env["ROS_MASTER_URI"])
-        end = time.monotonic() + START_TIMEOUT
-        while True:
-            try:
-                master.getPid()
-                break
-            except Exception:  # not up yet
-                if core.poll() is not None or time.monotonic() > end:
-                    raise RuntimeError(f"roscore on port {port} did not come up")
-                time.sleep(0.1)
+    with Roscore(caller="/bench_slam_replay", timeout=START_TIMEOUT) as core:
         for key, value in params.items():
-            master.setParam(f"/{NODE_NAME}/{key}", value)
+            core.master.setParam(f"/{NODE_NAME}/{key}", value)
         conf = os.path.join(os.path.dirname(log_path), "rosconsole.conf")
         with open(conf, "w") as f:
             f.write(ROSCONSOLE_CONFIG)
-        child_env = dict(sourced_env(setup, env) if setup else env, ROS_MASTER_URI=env["ROS_MASTER_URI"],
+        child_env = dict(sourced_env(setup, core.env) if setup else core.env,
+                         ROS_MASTER_URI=core.env["ROS_MASTER_URI"],
                          ROSCONSOLE_CONFIG_FILE=conf, ROSCONSOLE_FORMAT="${message}")
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         with open(log_path, "w") as log:
@@ -131,8 +115,6 @@ def run_player(exe, setup, bag, seed, params, log_path):
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         if done.returncode != 0:
             raise RuntimeError(f"{exe} ended with exit status {done.returncode}; see {log_path}")
-    finally:
-        stop_process_tree(core)
     with open(log_path, errors="replace") as f:
         text = f.read()
     return text, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
