@@ -22,8 +22,9 @@ cell borders lie half a cell off multiples of delta from its map's centre. With 
 and no motion noise (--set particles=1 srr=0 srt=0 str=0 stt=0) the filter is deterministic,
 and this replay then follows the real node's live run (bench_slam_bag.py --node ... with the
 same --set) update for update: the oracle that the scan matcher and maps are gmapping's
-(all 440 updates of ACES; on Intel the two part after 374 updates, see docs/slam.md,
-which also says why the map bounds must then be +-100 m: gmapping's free-cell check).
+(all 440 updates of ACES; on Intel they part after 374 updates at a near-tie that the
+maps' rounding decides, and the map bounds must be +-100 m for gmapping's free-cell
+check to stay off its map: docs/slam.md).
 
 Usage: slam_bag_offline.py LOG [--seeds 1 2] [--updates N] [--set name=value ...]
                                [--json PATH] [--profile PATH] [--as-gmapping]
