@@ -17,7 +17,10 @@ through the same SlamGMapping code as the live node. This script runs, for each 
     node does with that bag and seed, to the millimetre).
 Reported per seed and as median / worst: online ATE of both, CPU per update of both (the
 real one: the whole player process, its map updates every map_update_interval included;
-ours: the filter alone).
+ours: the filter alone). The real filter's result depends on the map bounds (xmin ... ymax,
+here around the trajectory as in bench_slam_bag) through a bug of its free-cell check;
+ours does not (docs/slam.md); `--set xmin=-100 ymin=-100 xmax=100 ymax=100` runs it with
+the node's defaults.
 
 Usage: bench_slam_replay.py LOG --replay EXE [--setup SETUP_BASH] [--seeds 1 2 ...]
                             [--json PATH] [--set name=value ...]
