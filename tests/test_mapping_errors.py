@@ -2,7 +2,6 @@
 map_saver into a folder that is missing or not writable fails clearly, earlier files intact."""
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -11,17 +10,11 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
-from roslaunch_session import Roscore, stop_process_tree  # noqa: E402
+from roslaunch_session import Roscore, free_port, stop_process_tree, wait_for  # noqa: E402
 
 TIMEOUT = 60  # [s] wall for one launch
 GOOD_YAML = ("image: {image}\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
              "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def env_for(tmp_path, port):
@@ -285,25 +278,16 @@ def test_slam_gmapping_survives_bad_scans(tmp_path):
     feeder = tmp_path / "feeder.py"
     feeder.write_text(SCAN_FEEDER)
     slam = None
-    # a wall-clock bound generous under load
+    # wall-clock bounds generous under load
     with Roscore(env=env_for(tmp_path, 0), timeout=90.0, caller="/test_bad_scans") as core:
         env, master = core.env, core.master
-
-        def wait_master(condition, what, timeout=90.0):
-            deadline = time.monotonic() + timeout
-            while time.monotonic() < deadline:
-                if condition():
-                    return
-                time.sleep(0.2)
-            pytest.fail(f"timed out waiting for {what}")
-
         try:
             slam = subprocess.Popen(["rosrun", "my_summit_mapping", "slam_gmapping", "_base_frame:=base_footprint",
                                      "_map_update_interval:=0.5", "_particles:=5", "_xmin:=-5", "_ymin:=-5",
                                      "_xmax:=5", "_ymax:=5"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                     text=True, env=env, start_new_session=True)
-            wait_master(lambda: any(t == "/scan" for t, _ in master.getSystemState()[1]),
-                        "slam_gmapping to subscribe to /scan")
+            wait_for(lambda: any(t == "/scan" for t, _ in master.getSystemState()[1]), 90.0,
+                     "slam_gmapping to subscribe to /scan", core, poll=0.2)
             _, code, out = run(["/usr/bin/python3", str(feeder)], env)
             assert "GOT MAP" in out, out[-3000:]
             assert slam.poll() is None, "slam_gmapping died"
