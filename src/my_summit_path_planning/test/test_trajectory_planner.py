@@ -316,32 +316,65 @@ def test_boxed_in_backs_up_in_escape_mode(fp):
     assert not p.escaping and -0.2 < pose[0] <= -0.1
 
 
-@pytest.mark.parametrize("walls", ["ahead", "ahead and along the side", "ahead and behind"])
+def _line(m, x0, y0, x1, y1):
+    """Lethal cells along the segment (x0, y0) - (x1, y1) [m], a quarter cell apart."""
+    n = int(math.hypot(x1 - x0, y1 - y0) / (0.25 * RES)) + 1
+    for x, y in zip(np.linspace(x0, x1, n), np.linspace(y0, y1, n)):
+        c = m.world_to_map(x, y)
+        m.data[c[1], c[0]] = cv.LETHAL_OBSTACLE
+
+
+@pytest.mark.parametrize("walls", ["ahead", "ahead and along the side", "ahead and along the side at 2 degrees",
+                                   "ahead and behind", "ahead and closing in on a rear corner"])
 def test_backs_up_off_a_touched_obstacle_but_not_onto_another(fp, walls):
     """The nose on a wall's cells (the outline touches them, so every sample fails, the
     backing one too): the robot backs up at escape_vel, as the real planner does, also
-    with its side on a wall it slides along. With a second wall 4 cm behind its rear it
-    does not: the real planner backs into it (its rule: back up even when the footprint
-    hits something), ours reports no command instead.
+    with its side on a wall it slides along, straight or 2 degrees off. With a second wall
+    4 cm behind its rear, or one that closes in on a rear corner, it does not: the real
+    planner backs into it (its rule: back up even when the footprint hits something), ours
+    reports no command instead.
 
-    Regression (planning bench, willow-full-0.05 pair 11, navfn + TrajectoryPlannerROS dwa:
-    true): stuck between the walls of a doorway for 80 s, the robot backed at -0.1 m/s
-    into the wall behind it (1 collision; astar pair 1 and dijkstra pair 16 the same)."""
+    Regressions (planning bench, willow-full-0.05): pair 11, navfn + TrajectoryPlannerROS
+    dwa: true: stuck between the walls of a doorway for 80 s, the robot backed at -0.1 m/s
+    into the wall behind it (1 collision; astar pair 1 and dijkstra pair 16 the same).
+    Pair 11, dijkstra + TrajectoryPlannerROS dwa: false, t = 31 s at (45.52, 31.77): a
+    wall running 13 degrees off the robot's axis, a cell off its rear-left corner, was
+    let through by the first rule (a lethal cell behind the rear edge, more than a cell
+    in from either side) and the corner backed into it (1 collision)."""
     m = _costmap()
     _box(m, 0.36, -1.0, 0.5, 1.0)                  # wall ahead, on the front edge's cells
     if walls == "ahead and behind":
         _box(m, -0.55, -1.0, -0.40, 1.0)           # rear edge at -0.36: 4 cm of room
     if walls == "ahead and along the side":
         _box(m, -1.5, 0.31, 0.5, 0.45)             # on the left edge's cells, all along
+    if walls == "ahead and along the side at 2 degrees":
+        _line(m, 0.35, 0.33, -1.5, 0.33 - 1.85 * math.tan(math.radians(2.0)))
+    if walls == "ahead and closing in on a rear corner":
+        _line(m, -0.3, 0.38, -1.5, 0.38 - 1.2 * math.tan(math.radians(13.0)))  # 5.5 cm off the corner
     p = _planner(fp)
     p.set_plan(np.column_stack([np.full(30, 0.0), np.linspace(0.0, 1.5, 30)]), 0.0)
     r = p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
     assert r.n_valid == 0 and r.mode == "escape"
-    if walls == "ahead and behind":
+    if walls in ("ahead and behind", "ahead and closing in on a rear corner"):
         assert not r.ok and r.cmd == (0.0, 0.0, 0.0) and "would drive the rear onto an obstacle" in r.reason
         assert not p.escaping
     else:
         assert r.ok and r.cmd == (-0.1, 0.0, 0.0) and p.escaping
+
+
+def test_polygon_signed_distance_equals_opencv():
+    """The back-up's clearance measure against OpenCV's pointPolygonTest (positive outside
+    there too once negated: OpenCV counts inside as positive)."""
+    import cv2
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-0.8, 0.8, (500, 2))
+    pts[:4] = [[0.0, 0.0], [0.36, 0.0], [0.5, 0.5], [-0.36, -0.31]]
+    for poly in (np.array(SUMMIT), np.array([[0.4, 0.0], [0.0, 0.3], [-0.4, 0.1], [-0.2, -0.3]])):
+        got = tp.polygon_signed_distance(poly, pts[:, 0], pts[:, 1])
+        contour = poly.astype(np.float32).reshape(-1, 1, 2)
+        want = [-cv2.pointPolygonTest(contour, (float(x), float(y)), True) for x, y in pts]
+        npt.assert_allclose(got, want, atol=1e-5)
+    assert tp.polygon_signed_distance(np.array(SUMMIT), 0.0, 0.0) == pytest.approx(-0.31)
 
 
 def test_escape_mode_ends_on_a_cycle_that_refuses_the_back_up(fp):

@@ -59,9 +59,9 @@ trajectory; the goal is reached once the heading is within yaw_goal_tolerance.
 Backing up in escape mode is commanded even when its trajectory meets an obstacle, as
 in the real planner: the outline check fails for every sample, the backing one too, as
 soon as the robot's current outline touches a lethal cell. It is refused where there is
-no way to the plan (cost -2), as in the real planner, and where a lethal cell lies behind
-the rear edge within the back-up's reach (backs_onto_obstacle), where the real planner
-backs into it.
+no way to the plan (cost -2), as in the real planner, and where it would bring the
+footprint onto a lethal cell it does not touch now (backs_onto_obstacle: a wall behind,
+or one closing in on a rear corner), where the real planner backs into it.
 
 Where else this differs from the real node: the goal is the plan's last point (the real node
 takes the last point of the windowed plan: the same whenever the goal is in the local
@@ -443,20 +443,53 @@ def _outline_cells(costmap, polygon, pose):
     return xs[valid], ys[valid]
 
 
+def polygon_signed_distance(polygon, px, py):
+    """Signed distance [m] of points (px, py) (same-shape arrays) from the closed polygon's
+    outline: positive outside, negative inside (even-odd rule)."""
+    ax, ay = polygon[:, 0], polygon[:, 1]
+    bx, by = np.roll(ax, -1), np.roll(ay, -1)
+    p_x, p_y = np.asarray(px, float)[..., None], np.asarray(py, float)[..., None]
+    ex, ey = bx - ax, by - ay
+    t = np.clip(((p_x - ax) * ex + (p_y - ay) * ey) / np.maximum(ex * ex + ey * ey, 1e-300), 0.0, 1.0)
+    dist = np.hypot(p_x - ax - t * ex, p_y - ay - t * ey).min(axis=-1)
+    crosses = ((ay > p_y) != (by > p_y)) & (p_x < ax + (p_y - ay) * ex / np.where(ey == 0.0, 1.0, ey))
+    return np.where(crosses.sum(axis=-1) % 2 == 1, -dist, dist)
+
+
+BACKUP_CONTACT = 0.5 * math.sqrt(2.0)   # [cells] a cell centre this near the outline may share area with it
+BACKUP_SLACK = 0.25                     # [cells] deeper than the deepest contact now by more: refused
+
+
 def backs_onto_obstacle(costmap, polygon, pose, distance):
-    """Whether backing up distance [m] from pose would drive the footprint's rear edge
-    onto a lethal cell: one whose centre lies in the strip behind the rear edge, that
-    deep, and a cell narrower on each side than the footprint (a wall the robot's side
-    touches and slides along is not in the way)."""
+    """Whether backing up distance [m] from pose drives the footprint onto a lethal cell.
+
+    The footprint's clearance to a lethal cell is the signed distance of the cell's centre
+    from its outline (negative inside). Cells the back-up moves away from (the wall ahead
+    that made every sample fail) do not count. Of the others, the back-up must not bring
+    any deeper than contact (within half a cell's diagonal), nor deeper than the deepest
+    of them is now by more than a quarter cell: a wall along the side the robot already
+    touches may stay touched as the robot slides along it, a wall behind it or one that
+    closes in on a rear corner may not."""
     res = costmap.resolution
+    reach = float(np.hypot(polygon[:, 0], polygon[:, 1]).max()) + distance + 2.0 * res
     rows, cols = np.nonzero(costmap.data == LETHAL_OBSTACLE)
     if len(rows) == 0:
         return False
     centres = np.column_stack(costmap.map_to_world(cols, rows))
     rx, ry = transform_points(centres, inverse(pose)).T          # in the robot's frame
-    rear = float(polygon[:, 0].min())
-    side_lo, side_hi = float(polygon[:, 1].min()) + res, float(polygon[:, 1].max()) - res
-    return bool(((rx < rear) & (rx >= rear - distance - 0.5 * res) & (ry > side_lo) & (ry < side_hi)).any())
+    near = np.hypot(rx, ry) <= reach
+    rx, ry = rx[near], ry[near]
+    if len(rx) == 0:
+        return False
+    back = np.linspace(0.0, distance, max(2, int(math.ceil(distance / (0.5 * res))) + 1))
+    d = polygon_signed_distance(polygon, rx[None, :] + back[:, None], ry[None, :])  # (steps, cells)
+    now, closest = d[0], d.min(axis=0)
+    eps = 1e-3 * res
+    moving_away = (closest >= now - eps) & (d[-1] > now + eps)
+    if moving_away.all():
+        return False
+    ref = min(BACKUP_CONTACT * res, float(now[~moving_away].min()))
+    return bool(closest[~moving_away].min() < ref - BACKUP_SLACK * res)
 
 
 def footprint_cells(costmap, polygon, pose):
@@ -1130,8 +1163,8 @@ class TrajectoryPlanner(HeldPlan):
                 return self._result(rs, sbest, n_valid, n_samples)
         # Nothing legal: back up at escape_vel, even when the outline already touches an
         # obstacle (the real planner's rule: then every sample fails, this one too), but
-        # not onto a lethal cell behind the robot (not the real rule: the real planner
-        # backs into it); nor where there is no way to the plan. Enter escape mode.
+        # not onto another lethal cell (not the real rule: the real planner backs into
+        # it); nor where there is no way to the plan. Enter escape mode.
         rb = self._rollout(cfg, pose, velocity, np.array([(cfg.escape_vel, 0.0, 0.0)]), costmap, self.grids,
                            self.polygon, biases)
         n_samples += 1
