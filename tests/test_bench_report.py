@@ -352,6 +352,12 @@ def test_planning_peer_section_names_the_executable_its_failed_pairs_and_how_to_
     assert rows[2]["measured"] == "40 s over 100 s simulated (0.40)"
     assert [r["met"] for r in bench_report.rows_planning_peer(dict(res, failed_pairs=[], runs_detail=[],
                                                                    cpu_s=None))] == [None, None]
+    combos = {"combos": {"willow_navfn_dwa": res,
+                         "willow_navfn_trajectory-dwa": dict(res, local_planner="trajectory-dwa",
+                                                             local_type="base_local_planner/TrajectoryPlannerROS")}}
+    rows = bench_report.rows_planning_peer(combos)   # one block of rows per combination
+    assert len(rows) == 6 and "dwa_local_planner/DWAPlannerROS, max_vel_x" in rows[0]["figure"]
+    assert "base_local_planner/TrajectoryPlannerROS dwa: true, max_vel_x" in rows[3]["figure"]
     assert "--move-base EXECUTABLE" in bench_report.measure_command("planning_peer")
     page = bench_report.render_page(bench_report.empty_store())
     assert 'make bench BENCH_ARGS="--only planning_peer --move-base EXECUTABLE' in page

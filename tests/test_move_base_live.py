@@ -24,6 +24,7 @@ DWA_RULE = {"xy_goal_tolerance": 0.10, "yaw_goal_tolerance": 0.06, "max_vel_x": 
 @pytest.mark.parametrize("args, expect", [
     (["--world", "mars"], "--world mars: unknown; expected one of builtin, willow"),
     (["--local-planner", "teb"], "--local-planner teb: unknown; expected one of dwa, trajectory, trajectory-dwa"),
+    (["--global-planner", "carrot"], "--global-planner carrot: unknown; expected one of navfn, astar, dijkstra"),
     (["--pairs", "0"], "--pairs must be >= 1, got 0"),
     (["--only", "21"], "--only 21: pair numbers run from 1 to --pairs 20"),        # willow: 20 pairs
     (["--world", "builtin", "--only", "0", "3"], "--only 0: pair numbers run from 1 to --pairs 50"),
@@ -110,13 +111,14 @@ def test_summary_has_bench_planning_cores_shape_with_failed_pairs_and_cpu():
 def test_goal_rule_reads_the_local_planners_config():
     dwa = yaml.safe_load(open(os.path.join(CONFIG, "dwa_local_planner_params.yaml")))["DWAPlannerROS"]
     tpr = yaml.safe_load(open(os.path.join(CONFIG, "base_local_planner_params.yaml")))["TrajectoryPlannerROS"]
-    r = live.goal_rule("dwa")
+    r = live.goal_rule("navfn", "dwa")
     assert r["local_type"] == "dwa_local_planner/DWAPlannerROS" and r["global_type"] == "navfn/NavfnROS"
     assert (r["xy_goal_tolerance"], r["yaw_goal_tolerance"], r["max_vel_x"]) == (
         dwa["xy_goal_tolerance"], dwa["yaw_goal_tolerance"], dwa["max_vel_x"])
     for kind in ("trajectory", "trajectory-dwa"):
-        r = live.goal_rule(kind)
+        r = live.goal_rule("astar", kind)
         assert r["local_type"] == "base_local_planner/TrajectoryPlannerROS"
+        assert r["global_type"] == "global_planner/GlobalPlanner"
         assert (r["xy_goal_tolerance"], r["yaw_goal_tolerance"], r["max_vel_x"]) == (
             tpr["xy_goal_tolerance"], tpr["yaw_goal_tolerance"], tpr["max_vel_x"])
 

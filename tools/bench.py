@@ -40,7 +40,8 @@ beside each time. Sections:
               and / (planned path length / max_vel_x)
   planning_peer (only with --only planning_peer --move-base EXE [--move-base-setup SETUP]) a
               move_base executable, e.g. the real one as the oracle, live on planning's 20
-              willow-full-0.05 pairs (navfn + DWA; bench_move_base_live.py): reached, collisions
+              willow-full-0.05 pairs (navfn with DWA, TrajectoryPlanner dwa false and true;
+              bench_move_base_live.py): reached, collisions
   stack_cpu   map_server + amcl + move_base (move_base.launch sim:=true, the course's config) on a
               fixed, seeded 10-goal run on the built-in world at 1x real time
               (bench_stack_cpu.py): CPU per simulated second and peak RSS per node, goals
@@ -335,16 +336,25 @@ def bench_planning(runs):
 
 
 PEER_WILLOW_PAIRS = 20   # planning's closed loop on willow-full-0.05
+# (global, local) kinds the peer runs: the lesson's global planner with each local planner
+PEER_COMBOS = (("navfn", "dwa"), ("navfn", "trajectory"), ("navfn", "trajectory-dwa"))
 
 
 def bench_planning_peer(node, node_setup=None):
     """bench_move_base_live.py: the move_base executable `node` (node_setup: the bash file
-    its environment needs) live on the willow pairs of planning's closed loop, navfn + DWA."""
-    res = _run_script("my_summit_path_planning", "bench_move_base_live.py",
-                      ["--world", "willow", "--pairs", str(PEER_WILLOW_PAIRS), "--local-planner", "dwa",
-                       "--node", node, "--out", os.path.join(OUT, "planning_peer")]
-                      + (["--node-setup", node_setup] if node_setup else []), "bench_planning_peer.json")
-    return res
+    its environment needs) live on the willow pairs of planning's closed loop, for each
+    PEER_COMBOS combination; {"combos": {combination_key: result}}."""
+    sys.path.insert(0, os.path.join(WS, "src", "my_summit_path_planning", "scripts"))
+    from bench_planning_core import combination_key
+    combos = {}
+    for global_kind, local_kind in PEER_COMBOS:
+        key = combination_key("willow", global_kind, local_kind)
+        combos[key] = _run_script(
+            "my_summit_path_planning", "bench_move_base_live.py",
+            ["--world", "willow", "--pairs", str(PEER_WILLOW_PAIRS), "--global-planner", global_kind,
+             "--local-planner", local_kind, "--node", node, "--out", os.path.join(OUT, "planning_peer", key)]
+            + (["--node-setup", node_setup] if node_setup else []), f"bench_planning_peer_{key}.json")
+    return {"combos": combos}
 
 
 STACK_CPU_PROFILE_GOALS = 4   # the profiled run drives the first goals only (the profiler is slow)

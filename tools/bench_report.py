@@ -47,8 +47,8 @@ SECTIONS = {
     "planning": ("the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop of every global x local "
                  "planner over seeded goal pairs"),
     "planning_peer": ("the real move_base (or any move_base-compatible executable, given with --move-base) live "
-                      "on planning's 20 willow-full-0.05 goal pairs, navfn + DWA, judged as its closed loop: the "
-                      "oracle for its targets"),
+                      "on planning's 20 willow-full-0.05 goal pairs, navfn with each local planner, judged as its "
+                      "closed loop: the oracle for its targets"),
     "stack_cpu": ("map_server + amcl + move_base (the course's config) on a fixed, seeded 10-goal run on the "
                   "built-in world at 1x real time: CPU per simulated second and peak RSS per node, goals reached, "
                   "collisions; where move_base's time goes (one profiled run)"),
@@ -403,11 +403,21 @@ def rows_planning(res):
 
 
 def rows_planning_peer(res):
-    """The other move_base's figures on planning's willow pairs: no targets (it is the yardstick)."""
+    """The other move_base's figures on planning's willow pairs, per combination: no targets
+    (it is the yardstick). res: {"combos": {key: result}}, or one result (older runs)."""
+    out = []
+    for one in (res["combos"].values() if "combos" in res else [res]):
+        out += _rows_planning_peer_one(one)
+    return out
+
+
+def _rows_planning_peer_one(res):
     node = os.path.basename(res.get("node") or "?")
     geo, plan = res["geodesic_ratio_median"], res.get("ratio_median")
     out = [row(f"{node} ({res.get('node')}) live, {os.path.basename(res['world'])}, {res['runs']} seeded pairs, "
-               f"{res['global_type']} + {res['local_type']}, max_vel_x {res['max_vel_x']} m/s: reached / collisions / "
+               f"{res['global_type']} + {res['local_type']}"
+               + (" dwa: true" if res.get("local_planner") == "trajectory-dwa" else "")
+               + f", max_vel_x {res['max_vel_x']} m/s: reached / collisions / "
                "median time ratio, geodesic (plan)",
                f"{res['reached_share'] * 100:.0f}% / {res['collisions']} / {_fmt(geo, '.2f')} ({_fmt(plan, '.2f')})",
                {"reached_share": res["reached_share"], "collisions": res["collisions"],

@@ -7,8 +7,9 @@ a free port; roslaunch of summit_xl_sim (the world, the pair's start pose and si
 seed), our map_server on the world's YAML and our fake_localization (ground truth as map ->
 odom); and a move_base node started directly (so that /proc/<pid> is the node's own),
 named move_base, cmd_vel -> /summit_xl_control/cmd_vel, odom -> /odom, with the package's
-config/*.yaml loaded into /move_base as move_base.launch loads them, base_local_planner
-and its namespace's parameters set as bench_planning_core's LOCAL_KINDS has them. One goal
+config/*.yaml loaded into /move_base as move_base.launch loads them, base_global_planner,
+base_local_planner and their namespaces' parameters set as bench_planning_core's
+combination_params has them (--global-planner, --local-planner). One goal
 through the move_base action (summit_nav_common.ros.action_client.SimpleActionClient, after
 the robot has stood for SETTLE_S so the costmaps have seen the laser); recorded: the ground
 truth (/base_pose_ground_truth), /collisions, the action's result, the first plan
@@ -29,7 +30,8 @@ per process, and each pair has its own master); every process started is stopped
 failure. Bad options end with a message and exit status 2 before anything starts.
 
 Usage: bench_move_base_live.py [--world builtin|willow] [--pairs N] [--only K ...]
-           [--local-planner dwa|trajectory|trajectory-dwa] [--speed 1.0]
+           [--global-planner navfn|astar|dijkstra] [--local-planner dwa|trajectory|trajectory-dwa]
+           [--speed 1.0]
            [--node EXECUTABLE [--node-setup SETUP_BASH]] [--json PATH] [--out DIR]
   e.g. bench_move_base_live.py --world willow --only 2 13
        bench_move_base_live.py --world willow --node /tmp/peers_ws/devel/lib/move_base/move_base \\
@@ -57,7 +59,6 @@ NODE = os.path.normpath(os.path.join(HERE, "..", "nodes", "move_base"))
 NODE_NAME = "move_base"
 WORLDS = dict(core.WORLDS)
 DEFAULT_PAIRS = {"builtin": 50, "willow": 20}   # bench_planning's closed loop
-GLOBAL_KIND = "navfn"     # the course's global planner (the config's base_global_planner)
 REMAPS = ("cmd_vel:=/summit_xl_control/cmd_vel", "odom:=/odom")
 # The config files in the order move_base.launch loads them: (file, namespace under /move_base).
 CONFIG_FILES = (("move_base_params.yaml", ""), ("costmap_common_params.yaml", "global_costmap"),
@@ -91,12 +92,12 @@ LAUNCH = """<launch>
 
 
 # ----------------------------------------------------------------- judging
-def goal_rule(local_kind):
+def goal_rule(global_kind, local_kind):
     """The local planner's xy_goal_tolerance [m], yaw_goal_tolerance [rad] and max_vel_x
-    [m/s] as the config and LOCAL_KINDS give them, and its type string."""
+    [m/s] as the config and LOCAL_KINDS give them, and both planners' type strings."""
     from my_summit_path_planning.params import build_costmap, load_move_base_params
     from my_summit_path_planning.plugins import MoveBasePlugins
-    p = core.combination_params(load_move_base_params(core.CONFIG), GLOBAL_KIND, local_kind)
+    p = core.combination_params(load_move_base_params(core.CONFIG), global_kind, local_kind)
     plugins = MoveBasePlugins(p, footprint=build_costmap(p.local_costmap, "local_costmap").footprint)
     cfg = plugins.local_planner.config
     return {"local_type": plugins.local_type, "global_type": plugins.global_type,
@@ -151,19 +152,24 @@ def node_command(node=None):
     return ([sys.executable, NODE] if node is None else [node]) + [f"__name:={NODE_NAME}", *REMAPS]
 
 
-def load_node_params(local_kind):
+def load_node_params(global_kind, local_kind):
     """The config's files into /move_base (CONFIG_FILES, as move_base.launch: dictionaries
-    merged), then base_local_planner and its namespace's LOCAL_KINDS parameters."""
+    merged), then base_global_planner / base_local_planner and their namespaces' parameters
+    as bench_planning_core.combination_params sets them (GLOBAL_KINDS with the course's
+    NavfnROS choices, LOCAL_KINDS)."""
     import rosparam
     from my_summit_path_planning.nav_core import namespace_of
     for name, ns in CONFIG_FILES:
         for params, where in rosparam.load_file(os.path.join(core.CONFIG, name),
                                                 default_namespace=f"/{NODE_NAME}/{ns}".rstrip("/") + "/"):
             rosparam.upload_params(where, params)
-    ltype, extra = core.LOCAL_KINDS[local_kind]
-    rosparam.set_param_raw(f"/{NODE_NAME}/base_local_planner", ltype)
-    for k, v in extra.items():
-        rosparam.set_param_raw(f"/{NODE_NAME}/{namespace_of(ltype)}/{k}", v)
+    from my_summit_path_planning.params import load_move_base_params
+    p = core.combination_params(load_move_base_params(core.CONFIG), global_kind, local_kind)
+    for key in ("base_global_planner", "base_local_planner"):
+        type_name = getattr(p.move_base, key)
+        rosparam.set_param_raw(f"/{NODE_NAME}/{key}", type_name)
+        for k, v in (p.namespaces.get(namespace_of(type_name)) or {}).items():
+            rosparam.set_param_raw(f"/{NODE_NAME}/{namespace_of(type_name)}/{k}", v)
 
 
 class Recorder:
@@ -212,7 +218,7 @@ def wait_until(pred, timeout, what, alive):
         time.sleep(POLL_S)
 
 
-def run_pair(world_yaml, pair, k, local_kind, rule, out, speed=1.0, node=None, node_setup=None):
+def run_pair(world_yaml, pair, k, global_kind, local_kind, rule, out, speed=1.0, node=None, node_setup=None):
     """Pair number k (1-based) live: launch, move_base, one goal (module docstring); the
     judged record (judge)."""
     from roslaunch_session import RoslaunchSession, cpu_seconds, sourced_env, stop_process_tree, \
@@ -228,7 +234,7 @@ def run_pair(world_yaml, pair, k, local_kind, rule, out, speed=1.0, node=None, n
     with RoslaunchSession([stem + ".launch"], log=stem + "_launch.log") as session:
         try:
             wait_for_sim_time_param(session, START_TIMEOUT)
-            load_node_params(local_kind)
+            load_node_params(global_kind, local_kind)
             env = sourced_env(node_setup, session.env, extend=True) if node_setup else session.env
             env = dict(env, ROS_MASTER_URI=session.env["ROS_MASTER_URI"])
             with open(stem + "_move_base.log", "w") as log:
@@ -286,6 +292,7 @@ def parse_args(argv):
     ap.add_argument("--pairs", type=int, help="pairs drawn (default: 50 built-in, 20 willow, as bench_planning)")
     ap.add_argument("--only", type=int, nargs="+", metavar="K", help="run only these pair numbers (1-based)")
     ap.add_argument("--seed", type=int, default=0, help="the pairs' seed (bench_planning_core's --seed)")
+    ap.add_argument("--global-planner", default="navfn", help="navfn, astar or dijkstra (GLOBAL_KINDS)")
     ap.add_argument("--local-planner", default="dwa", help="dwa, trajectory or trajectory-dwa (LOCAL_KINDS)")
     ap.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
     ap.add_argument("--node", metavar="EXECUTABLE", help="run this move_base-compatible executable instead of ours")
@@ -297,6 +304,8 @@ def parse_args(argv):
     args = ap.parse_args(argv)
     if args.world not in WORLDS:
         return args, f"--world {args.world}: unknown; expected one of {', '.join(WORLDS)}"
+    if args.global_planner not in core.GLOBAL_KINDS:
+        return args, f"--global-planner {args.global_planner}: unknown; expected one of {', '.join(core.GLOBAL_KINDS)}"
     if args.local_planner not in core.LOCAL_KINDS:
         return args, f"--local-planner {args.local_planner}: unknown; expected one of {', '.join(core.LOCAL_KINDS)}"
     args.pairs = DEFAULT_PAIRS[args.world] if args.pairs is None else args.pairs
@@ -315,7 +324,8 @@ def parse_args(argv):
 
 
 def child_command(args, k, pair, out):
-    return [sys.executable, os.path.abspath(__file__), "--world", args.world, "--local-planner", args.local_planner,
+    return [sys.executable, os.path.abspath(__file__), "--world", args.world, "--global-planner", args.global_planner,
+            "--local-planner", args.local_planner,
             "--speed", repr(args.speed), "--out", out, "--child", json.dumps(dict(pair, pair=k))] \
         + (["--node", os.path.abspath(args.node)] if args.node else []) \
         + (["--node-setup", os.path.abspath(args.node_setup)] if args.node_setup else [])
@@ -329,11 +339,12 @@ def main(argv=None):
     world_yaml = WORLDS[args.world]
     out = os.path.abspath(args.out or os.path.join(WS, "output", "move_base_live"))
     os.makedirs(out, exist_ok=True)
-    rule = goal_rule(args.local_planner)
+    rule = goal_rule(args.global_planner, args.local_planner)
     if args.child:   # one pair, in its own process (rospy starts once per process)
         pair = json.loads(args.child)
         try:
-            r = run_pair(world_yaml, pair, pair["pair"], args.local_planner, rule, out, args.speed, args.node,
+            r = run_pair(world_yaml, pair, pair["pair"], args.global_planner, args.local_planner, rule, out,
+                         args.speed, args.node,
                          args.node_setup)
         except (RuntimeError, ValueError, OSError) as e:
             print(f"bench_move_base_live: error: pair {pair['pair']}: {e}", flush=True)
@@ -359,7 +370,7 @@ def main(argv=None):
               f"ratio {r['geodesic_ratio']:.2f} (plan {plan}) coll={r['collisions']} err={r['xy_error_m']:.3f} m "
               f"{r['yaw_error_rad']:.3f} rad driven {r['driven_m']:.1f} m CPU {r['cpu_s']:.1f} s {r['failure']}",
               flush=True)
-    header = {"world": world_yaml, "global_planner": GLOBAL_KIND, "local_planner": args.local_planner,
+    header = {"world": world_yaml, "global_planner": args.global_planner, "local_planner": args.local_planner,
               "global_type": rule["global_type"], "local_type": rule["local_type"], "max_vel_x": rule["max_vel_x"],
               "node": node, "pairs_drawn": args.pairs, "seed": args.seed, "speed": args.speed}
     res = summarize(header, runs)
