@@ -193,14 +193,36 @@ def print_result(record):
     print(RESULT_PREFIX + json.dumps(record), flush=True)
 
 
+CHILD_STOP_GRACE = 30.0   # [s] a child run stopping (its graph shut down) before it is killed
+
+
+def exit_on_sigterm():
+    """Make SIGTERM end this process as Ctrl-C would, through its with-blocks and finally
+    clauses, so that a benchmark stopped by `kill PID` stops the graph it started."""
+    def _exit(signum, frame):
+        raise SystemExit(128 + signum)
+    signal.signal(signal.SIGTERM, _exit)
+
+
 def child_result(cmd):
     """Run cmd (a child run of a benchmark script: rospy starts once per process, so each
     run has its own) to its end; -> (record, None) from its last print_result line, or
-    (None, what went wrong: its exit status and the tail of its output)."""
-    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines = [line for line in proc.stdout.splitlines() if line.startswith(RESULT_PREFIX)]
+    (None, what went wrong: its exit status and the tail of its output). Interrupted (Ctrl-C,
+    or SIGTERM after exit_on_sigterm), the child gets SIGTERM and CHILD_STOP_GRACE to stop
+    what it started before it is killed."""
+    with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) as proc:
+        try:
+            out, _ = proc.communicate()
+        except BaseException:
+            proc.terminate()
+            try:
+                proc.wait(CHILD_STOP_GRACE)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+            raise
+    lines = [line for line in out.splitlines() if line.startswith(RESULT_PREFIX)]
     if proc.returncode != 0 or not lines:
-        return None, f"exit status {proc.returncode}:\n{proc.stdout[-4000:]}"
+        return None, f"exit status {proc.returncode}:\n{out[-4000:]}"
     return json.loads(lines[-1][len(RESULT_PREFIX):]), None
 
 

@@ -63,8 +63,8 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
-from roslaunch_session import (check_node_args, child_result, cpu_seconds,  # noqa: E402,F401  (test_slam_bag
-                               print_result, sourced_env)                   # uses some here)
+from roslaunch_session import (check_node_args, child_result, cpu_seconds, exit_on_sigterm,  # noqa: E402,F401
+                               print_result, sourced_env)  # (test_slam_bag uses some here)
 
 NODE = os.path.join(HERE, "..", "nodes", "slam_gmapping")
 NODE_NAME = "slam_gmapping"
@@ -442,4 +442,5 @@ def run_seeds(args, overrides, out):
 
 
 if __name__ == "__main__":
+    exit_on_sigterm()   # a kill stops the graphs this run started
     sys.exit(main())

@@ -53,7 +53,7 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, HERE)
 
 import bench_planning_core as core  # noqa: E402  (the pairs, the planner kinds, the time limit)
-from roslaunch_session import check_node_args, child_result, print_result  # noqa: E402
+from roslaunch_session import check_node_args, child_result, exit_on_sigterm, print_result  # noqa: E402
 
 NODE = os.path.normpath(os.path.join(HERE, "..", "nodes", "move_base"))
 NODE_NAME = "move_base"
@@ -385,4 +385,5 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
+    exit_on_sigterm()   # a kill stops the graphs this run started
     sys.exit(main())

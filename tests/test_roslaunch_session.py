@@ -1,0 +1,62 @@
+"""tools/roslaunch_session: a benchmark stopped with `kill PID` stops what it started.
+
+The live benchmarks run each pair or seed in a child process that holds a ROS graph
+(roslaunch, the node under test) in with-blocks and finally clauses. Regression: killing
+bench_move_base_live.py's parent left the child's roslaunch, simulator and move_base
+running (SIGTERM ended the parent at once, and subprocess.run then SIGKILLed the child,
+so no cleanup ran anywhere)."""
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TOOLS = os.path.join(WS, "tools")
+
+CHILD = textwrap.dedent("""
+    import sys, time
+    sys.path.insert(0, {tools!r})
+    from roslaunch_session import exit_on_sigterm
+    exit_on_sigterm()
+    try:
+        open({ready!r}, "w").close()
+        time.sleep(60)
+    finally:
+        open({cleaned!r}, "w").close()   # stands for stopping the graph
+""")
+
+PARENT = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, {tools!r})
+    from roslaunch_session import child_result, exit_on_sigterm
+    exit_on_sigterm()
+    child_result([sys.executable, {child!r}])
+""")
+
+
+def _wait_for(path, timeout=20.0):
+    end = time.monotonic() + timeout
+    while not os.path.exists(path):
+        assert time.monotonic() < end, f"{path} never appeared"
+        time.sleep(0.05)
+
+
+def test_killing_the_parent_lets_the_child_run_its_cleanup(tmp_path):
+    ready, cleaned = str(tmp_path / "ready"), str(tmp_path / "cleaned")
+    child = tmp_path / "child.py"
+    child.write_text(CHILD.format(tools=TOOLS, ready=ready, cleaned=cleaned))
+    parent = tmp_path / "parent.py"
+    parent.write_text(PARENT.format(tools=TOOLS, child=str(child)))
+    proc = subprocess.Popen([sys.executable, str(parent)])
+    try:
+        _wait_for(ready)
+        assert not os.path.exists(cleaned)
+        os.kill(proc.pid, signal.SIGTERM)
+        assert proc.wait(30) == 128 + signal.SIGTERM
+        _wait_for(cleaned, timeout=5.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
