@@ -456,7 +456,7 @@ def polygon_signed_distance(polygon, px, py):
     return np.where(crosses.sum(axis=-1) % 2 == 1, -dist, dist)
 
 
-BACKUP_CONTACT = 0.5 * math.sqrt(2.0)   # [cells] a cell centre this near the outline may share area with it
+BACKUP_CONTACT = 0.5                    # [cells] a cell centre this near the (padded) outline: its square reaches it
 BACKUP_SLACK = 0.25                     # [cells] deeper than the deepest contact now by more: refused
 
 
@@ -466,8 +466,8 @@ def backs_onto_obstacle(costmap, polygon, pose, distance):
     The footprint's clearance to a lethal cell is the signed distance of the cell's centre
     from its outline (negative inside). Cells the back-up moves away from (the wall ahead
     that made every sample fail) do not count. Of the others, the back-up must not bring
-    any deeper than contact (within half a cell's diagonal), nor deeper than the deepest
-    of them is now by more than a quarter cell: a wall along the side the robot already
+    any more than a quarter cell deeper than contact (the cell's square reaching the
+    outline), nor than the deepest of them is now: a wall along the side the robot already
     touches may stay touched as the robot slides along it, a wall behind it or one that
     closes in on a rear corner may not."""
     res = costmap.resolution
