@@ -12,6 +12,8 @@ import sys
 import textwrap
 import time
 
+import pytest
+
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TOOLS = os.path.join(WS, "tools")
 
@@ -60,3 +62,18 @@ def test_killing_the_parent_lets_the_child_run_its_cleanup(tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_a_wait_names_the_process_that_ended_its_exit_status_and_its_last_lines(tmp_path):
+    sys.path.insert(0, TOOLS)
+    from roslaunch_session import Watched, wait_for
+    log = tmp_path / "node.log"
+    with open(log, "w") as out:
+        proc = subprocess.Popen([sys.executable, "-c", "print('bad parameter: particles'); raise SystemExit(3)"],
+                                stdout=out, stderr=subprocess.STDOUT)
+    proc.wait()
+    with pytest.raises(RuntimeError) as err:
+        wait_for(lambda: False, 30.0, "the first scan", [Watched.process("slam_gmapping", proc, str(log))])
+    text = str(err.value)
+    assert text.startswith("slam_gmapping ended (exit status 3) while waiting for the first scan; last lines of ")
+    assert text.endswith("bad parameter: particles\n")

@@ -260,14 +260,48 @@ def wait_for_sim_time_param(session, timeout=60.0):
     wait_for(set_true, timeout, "/use_sim_time on the launch's master", session, poll=0.1)
 
 
-def wait_for(predicate, timeout, what, session=None, poll=0.05):
-    """Wait until predicate() is true; RuntimeError naming `what` on timeout or when
-    session (a RoslaunchSession or Roscore) ended."""
+class Watched:
+    """A process a wait keeps an eye on: name, alive() -> bool, log_path (its output) and
+    status() -> its exit status or None. RoslaunchSession and Roscore have the first three."""
+
+    def __init__(self, name, alive, log_path=None, status=None):
+        self.name, self.alive, self.log_path, self._status = name, alive, log_path, status
+
+    @classmethod
+    def process(cls, name, proc, log_path=None):
+        """A subprocess.Popen."""
+        return cls(name, lambda: proc.poll() is None, log_path, lambda: proc.returncode)
+
+    def status(self):
+        return self._status() if self._status else None
+
+
+def tail(path, n=30):
+    """The last n lines of a text file ("" when it cannot be read)."""
+    try:
+        with open(path, errors="replace") as f:
+            return "".join(f.readlines()[-n:])
+    except OSError:
+        return ""
+
+
+def check_alive(watch, what):
+    """RuntimeError naming the first of watch (one Watched-like thing or a sequence) that
+    has ended, its exit status and the last lines of its log, while waiting for what."""
+    for w in (watch if isinstance(watch, (list, tuple)) else [watch] if watch is not None else []):
+        if not w.alive():
+            status = w.status() if hasattr(w, "status") else None
+            said = f" (exit status {status})" if status is not None else ""
+            log = f"; last lines of {w.log_path}:\n{tail(w.log_path)}" if w.log_path else ""
+            raise RuntimeError(f"{w.name} ended{said} while waiting for {what}{log}")
+
+
+def wait_for(predicate, timeout, what, watch=None, poll=0.05):
+    """Wait until predicate() is true; RuntimeError naming `what` on timeout or when one of
+    watch (a RoslaunchSession, Roscore or Watched, or a sequence of them) ended."""
     end = time.monotonic() + timeout
     while not predicate():
-        if session is not None and not session.alive():
-            where = f" (see {session.log_path})" if session.log_path else ""
-            raise RuntimeError(f"{session.name} ended while waiting for {what}{where}")
+        check_alive(watch, what)
         if time.monotonic() > end:
             raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
         time.sleep(poll)

@@ -63,8 +63,8 @@ sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
-from roslaunch_session import (check_node_args, child_result, cpu_seconds, exit_on_sigterm,  # noqa: E402,F401
-                               print_result, sourced_env)  # (test_slam_bag uses some here)
+from roslaunch_session import (Watched, check_alive, check_node_args, child_result, cpu_seconds,  # noqa: E402,F401
+                               exit_on_sigterm, print_result, sourced_env, tail, wait_for)  # (test_slam_bag uses some)
 
 NODE = os.path.join(HERE, "..", "nodes", "slam_gmapping")
 NODE_NAME = "slam_gmapping"
@@ -91,14 +91,6 @@ def peak_rss_mb(pid):
             if line.startswith("VmHWM:"):
                 return int(line.split()[1]) / 1024.0
     raise RuntimeError(f"no VmHWM in /proc/{pid}/status")
-
-
-def tail(path, n=30):
-    try:
-        with open(path, errors="replace") as f:
-            return "".join(f.readlines()[-n:])
-    except OSError:
-        return ""
 
 
 # ----------------------------------------------------------------- parameters
@@ -188,24 +180,6 @@ class Recorder:
             self.references += 1
 
 
-def check_alive(alive, what):
-    """RuntimeError naming the process when one of alive = ((name, Popen, log), ...) ended."""
-    for name, proc, log in alive:
-        if proc.poll() is not None:
-            raise RuntimeError(f"{name} ended (exit status {proc.returncode}) while waiting for {what}; "
-                               f"last lines of {log}:\n{tail(log)}")
-
-
-def wait_for(pred, timeout, what, alive=()):
-    """Wait until pred(); RuntimeError on timeout or when one of `alive` ended (check_alive)."""
-    end = time.monotonic() + timeout
-    while not pred():
-        check_alive(alive, what)
-        if time.monotonic() > end:
-            raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
-        time.sleep(0.05)
-
-
 def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None):
     """Play `bag` through slam_gmapping (ours, or node_cmd in the environment node_setup
     leaves) once; returns the result dict (see module docstring)."""
@@ -237,7 +211,7 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
         master.setParam(f"/{NODE_NAME}/seed", int(seed))
         node = start("node", node_command(node_cmd),
                      sourced_env(node_setup, env) if node_setup else None)
-        alive = [("roscore", core, logs["roscore"]), (NODE_NAME, node, logs["node"])]
+        alive = [Watched.process("roscore", core, logs["roscore"]), Watched.process(NODE_NAME, node, logs["node"])]
         rospy.init_node("bench_slam_bag", anonymous=True, disable_signals=True)
         rec = Recorder()
         from rosgraph_msgs.msg import Clock

@@ -205,24 +205,11 @@ class Recorder:
                 self.plan_m = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(pts, pts[1:]))
 
 
-def wait_until(pred, timeout, what, alive):
-    """Wait until pred(); RuntimeError on timeout [s wall] or when one of
-    alive = ((name, is_running, log), ...) has ended."""
-    end = time.monotonic() + timeout
-    while not pred():
-        for name, running, log in alive:
-            if not running():
-                raise RuntimeError(f"{name} ended while waiting for {what}; see {log}")
-        if time.monotonic() > end:
-            raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
-        time.sleep(POLL_S)
-
-
 def run_pair(world_yaml, pair, k, global_kind, local_kind, rule, out, speed=1.0, node=None, node_setup=None):
     """Pair number k (1-based) live: launch, move_base, one goal (module docstring); the
     judged record (judge)."""
-    from roslaunch_session import RoslaunchSession, cpu_seconds, sourced_env, stop_process_tree, \
-        wait_for_sim_time_param
+    from roslaunch_session import RoslaunchSession, Watched, cpu_seconds, sourced_env, stop_process_tree, \
+        wait_for, wait_for_sim_time_param
     from my_summit_path_planning.nav_core import namespace_of
     (sx, sy, syaw), (gx, gy, gyaw) = pair["start"], pair["goal"]
     limit = time_limit(pair["geodesic_m"], rule["max_vel_x"])
@@ -240,20 +227,19 @@ def run_pair(world_yaml, pair, k, global_kind, local_kind, rule, out, speed=1.0,
             with open(stem + "_move_base.log", "w") as log:
                 node_proc = subprocess.Popen(node_command(node), stdout=log, stderr=subprocess.STDOUT, env=env,
                                              start_new_session=True)
-            alive = (("the launch", session.alive, session.log_path),
-                     (NODE_NAME, lambda: node_proc.poll() is None, stem + "_move_base.log"))
+            alive = (session, Watched.process(NODE_NAME, node_proc, stem + "_move_base.log"))
             import rospy
             from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
             from summit_nav_common.ros.action_client import SimpleActionClient
             rospy.init_node("bench_move_base_live", anonymous=True, disable_signals=True)
             rec = Recorder(f"/{NODE_NAME}/{namespace_of(rule['global_type'])}/plan")
             client = SimpleActionClient(f"/{NODE_NAME}", MoveBaseAction)
-            wait_until(lambda: rec.pose is not None and rec.collisions is not None and rospy.Time.now().to_sec() > 0,
-                       START_TIMEOUT, "ground truth, /collisions and /clock", alive)
-            wait_until(lambda: client.wait_for_server(rospy.Duration(0.1)), START_TIMEOUT,
-                       "the move_base action server", alive)
+            wait_for(lambda: rec.pose is not None and rec.collisions is not None and rospy.Time.now().to_sec() > 0,
+                     START_TIMEOUT, "ground truth, /collisions and /clock", alive, POLL_S)
+            wait_for(lambda: client.wait_for_server(rospy.Duration(0.1)), START_TIMEOUT,
+                     "the move_base action server", alive, POLL_S)
             settle = rospy.Time.now().to_sec() + SETTLE_S
-            wait_until(lambda: rospy.Time.now().to_sec() >= settle, START_TIMEOUT, "the robot to settle", alive)
+            wait_for(lambda: rospy.Time.now().to_sec() >= settle, START_TIMEOUT, "the robot to settle", alive, POLL_S)
             goal = MoveBaseGoal()
             goal.target_pose.header.frame_id = "map"
             goal.target_pose.header.stamp = rospy.Time.now()
@@ -265,8 +251,8 @@ def run_pair(world_yaml, pair, k, global_kind, local_kind, rule, out, speed=1.0,
                 coll0, rec.counting = rec.collisions, True
             cpu0, t0, wall0 = cpu_seconds(node_proc.pid), rospy.Time.now().to_sec(), time.monotonic()
             client.send_goal(goal, done_cb=lambda state, result: done.append(rospy.Time.now().to_sec() - t0))
-            wait_until(lambda: done or rospy.Time.now().to_sec() - t0 >= limit
-                       or time.monotonic() - wall0 > WALL_FACTOR * limit, 1e9, "the result", alive)
+            wait_for(lambda: done or rospy.Time.now().to_sec() - t0 >= limit
+                     or time.monotonic() - wall0 > WALL_FACTOR * limit, 1e9, "the result", alive, POLL_S)
             t_end = done[0] if done else rospy.Time.now().to_sec() - t0
             cpu = cpu_seconds(node_proc.pid) - cpu0
             if not done:
