@@ -358,6 +358,8 @@ def test_planning_peer_section_names_the_executable_its_failed_pairs_and_how_to_
     rows = bench_report.rows_planning_peer(combos)   # one block of rows per combination
     assert len(rows) == 6 and "dwa_local_planner/DWAPlannerROS, max_vel_x" in rows[0]["figure"]
     assert "base_local_planner/TrajectoryPlannerROS dwa: true, max_vel_x" in rows[3]["figure"]
+    late = bench_report.rows_planning_peer(dict(res, late_cycles=15, speed=3.0))[2]
+    assert late["measured"] == "40 s over 100 s simulated (0.40) at 3x; 15" and "control loop late" in late["figure"]
     assert "--move-base EXECUTABLE" in bench_report.measure_command("planning_peer")
     page = bench_report.render_page(bench_report.empty_store())
     assert 'make bench BENCH_ARGS="--only planning_peer --move-base EXECUTABLE' in page

@@ -153,3 +153,14 @@ def test_our_move_base_drives_a_builtin_pair_live(tmp_path):
     assert run["xy_error_m"] <= 0.15 and math.isfinite(run["time_s"]) and run["time_s"] < run["limit_s"]
     assert res["reached_share"] == 1.0 and res["failed_pairs"] == [] and res["cpu_s"] > 0.0
     assert run["driven_m"] >= 0.9 * math.hypot(run["goal"][0] - run["start"][0], run["goal"][1] - run["start"][1])
+
+
+def test_late_cycles_counts_move_bases_warning(tmp_path):
+    """A node that cannot keep up with the simulated speed says so; the count goes into the
+    record (the real DWAPlannerROS at 3x was late on 4947 cycles of 20 pairs)."""
+    log = tmp_path / "move_base.log"
+    log.write_text("[ WARN] [1.0, 6.71]: Control loop missed its desired rate of 20.0000Hz... the loop actually "
+                   "took 0.0800 seconds\n[ INFO] goal reached\n[ WARN] Control loop missed its desired rate of "
+                   "20.0000Hz... the loop actually took 0.1000 seconds\n")
+    assert live.late_cycles(str(log)) == 2
+    assert live.late_cycles(str(tmp_path / "missing.log")) is None

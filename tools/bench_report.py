@@ -429,9 +429,12 @@ def _rows_planning_peer_one(res):
     cpu = res.get("cpu_s")
     if cpu is not None:
         sim = sum(r["time_s"] for r in res.get("runs_detail", []))
-        out.append(row("... the node's CPU over the goals, per simulated second",
-                       f"{cpu:.0f} s over {sim:.0f} s simulated ({cpu / sim:.2f})" if sim else f"{cpu:.0f} s",
-                       {"cpu_s": cpu, "sim_s": sim}))
+        late = res.get("late_cycles")
+        out.append(row("... the node's CPU over the goals, per simulated second"
+                       + ("; its control loop late (move_base's warning), times" if late is not None else ""),
+                       (f"{cpu:.0f} s over {sim:.0f} s simulated ({cpu / sim:.2f})" if sim else f"{cpu:.0f} s")
+                       + (f" at {res.get('speed', 1.0):g}x; {late}" if late is not None else ""),
+                       {"cpu_s": cpu, "sim_s": sim, "late_cycles": late}))
     return out
 
 

@@ -142,6 +142,7 @@ def summarize(header, runs):
             "geodesic_ratio_median": median(r["geodesic_ratio"] for r in runs),
             "failed_pairs": [r["pair"] for r in runs if not r["reached"]],
             "cpu_s": sum(cpu) if runs and None not in cpu else None,
+            "late_cycles": sum(r.get("late_cycles") or 0 for r in runs),
             "runs_detail": runs}
 
 
@@ -267,7 +268,21 @@ def run_pair(world_yaml, pair, k, global_kind, local_kind, rule, out, speed=1.0,
     return judge({"pair": k, "start": [sx, sy, syaw], "goal": [gx, gy, gyaw], "geodesic_m": pair["geodesic_m"],
                   "sim_seed": pair["sim_seed"], "limit_s": limit, "done": bool(done), "state": state, "text": text,
                   "time_s": t_end, "final": list(final), "collisions": int(coll), "plan_m": plan_m,
-                  "driven_m": driven, "cpu_s": cpu, "wall_s": time.monotonic() - wall0}, rule)
+                  "driven_m": driven, "cpu_s": cpu, "wall_s": time.monotonic() - wall0,
+                  "late_cycles": late_cycles(stem + "_move_base.log")}, rule)
+
+
+LATE_CYCLE = "Control loop missed its desired rate"   # move_base's warning (the real one's words, and ours)
+
+
+def late_cycles(log_path):
+    """How often the node said its control loop missed controller_frequency: a node that
+    cannot keep up with the simulated speed is judged on a slower controller than it has."""
+    try:
+        with open(log_path, errors="replace") as f:
+            return sum(line.count(LATE_CYCLE) for line in f)
+    except OSError:
+        return None
 
 
 # ----------------------------------------------------------------- the pairs (parent)
