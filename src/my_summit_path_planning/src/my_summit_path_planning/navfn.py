@@ -166,6 +166,26 @@ def _grid_csr(cost, passable, node_of):
     return indptr, indices[:k], data[:k]
 
 
+@njit(cache=True, nogil=True)
+def _reduced_weights(indptr, indices, data, heur):
+    """A*'s reduced edge weights w + h(v) - h(u) of a CSR matrix in one pass over its
+    rows, clipped at 0 (rounding only: the heuristic is consistent)."""
+    out = np.empty(data.size)
+    for u in range(indptr.size - 1):
+        hu = heur[u]
+        for j in range(indptr[u], indptr[u + 1]):
+            r = (heur[indices[j]] - hu) + data[j]   # the reference's order: equal to the bit
+            out[j] = r if r > 0.0 else 0.0
+    return out
+
+
+def reduced_weights_reference(matrix, heur):
+    """_reduced_weights with NumPy: the targets' h gathered, the sources' h repeated over
+    each row (the test oracle)."""
+    reduced = np.take(heur, matrix.indices) - np.repeat(heur, np.diff(matrix.indptr)) + matrix.data
+    return np.maximum(reduced, 0.0)
+
+
 def grid_graph_matrix_reference(cell_cost):
     """GridGraph's CSR matrix built edge list by edge list through SciPy's COO (test oracle)."""
     cost = np.asarray(cell_cost, dtype=np.float64)
@@ -214,13 +234,6 @@ class GridGraph:
         indptr, indices, data = _grid_csr(cost, passable, self.node_of)
         self.matrix = sp.csr_matrix((data, indices, indptr), shape=(n, n))
 
-    @property
-    def _row_counts(self):
-        """(n,) edges stored per node (cached)."""
-        if getattr(self, "_counts", None) is None:
-            self._counts = np.diff(self.matrix.indptr)
-        return self._counts
-
     def component_of(self, cell):
         """8-connected component label of flat cell index cell (-1 if not passable)."""
         if getattr(self, "_labels", None) is None:
@@ -252,12 +265,7 @@ class GridGraph:
         if guide is not None:
             heur = np.maximum(heur, np.asarray(guide, dtype=np.float64).ravel()[self.cells])
         m = self.matrix
-        # w' = w + h(target) - h(source): the targets' h gathered, the sources' h repeated
-        # over each CSR row (sequential, cheaper than a second gather).
-        reduced = np.take(heur, m.indices)
-        reduced -= np.repeat(heur, self._row_counts)
-        reduced += m.data
-        np.maximum(reduced, 0.0, out=reduced)  # rounding only: the heuristic is consistent
+        reduced = _reduced_weights(m.indptr, m.indices, m.data, heur)   # w' = w + h(v) - h(u)
         rm = sp.csr_matrix((reduced, m.indices, m.indptr), shape=m.shape, copy=False)
         hs = heur[src]
         est = hs if cost_estimate is None or not math.isfinite(cost_estimate) else max(hs, cost_estimate)
