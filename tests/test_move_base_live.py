@@ -102,6 +102,10 @@ def test_summary_has_bench_planning_cores_shape_with_failed_pairs_and_cpu():
     assert s["ratio_median"] == pytest.approx((12.0 / 8.0 + 30.0 / 8.0) / 2)   # over the runs with a plan
     assert s["failed_pairs"] == [2] and s["cpu_s"] == pytest.approx(6.5)
     assert s["world"] == "w.yaml" and s["node"] == "/x/move_base" and s["runs_detail"] == runs
+    assert s["late_cycles"] is None          # not counted in these records
+    for r, late in zip(runs, (0, 4, 1)):
+        r["late_cycles"] = late
+    assert live.summarize({}, runs)["late_cycles"] == 5
     runs[0]["cpu_s"] = None
     assert live.summarize({}, runs)["cpu_s"] is None
     empty = live.summarize({}, [])

@@ -338,8 +338,8 @@ def bench_planning(runs):
 PEER_WILLOW_PAIRS = 20   # planning's closed loop on willow-full-0.05
 # (global, local) kinds the peer runs: the lesson's global planner with each local planner
 PEER_COMBOS = (("navfn", "dwa"), ("navfn", "trajectory"), ("navfn", "trajectory-dwa"))
-# Simulated s per wall s for each local planner: the real TrajectoryPlannerROS keeps its
-# 20 Hz at 3x; its DWAPlannerROS (~20 ms a cycle here) was late on 4947 cycles of 20 pairs.
+# Simulated s per wall s for each local planner: at 3x the real TrajectoryPlannerROS was
+# late on 15 control cycles of 20 pairs, its DWAPlannerROS (~20 ms a cycle here) on 4947.
 PEER_SPEED = {"dwa": 1.0, "trajectory": 3.0, "trajectory-dwa": 3.0}
 
 
@@ -357,7 +357,8 @@ def bench_planning_peer(node, node_setup=None):
             ["--world", "willow", "--pairs", str(PEER_WILLOW_PAIRS), "--global-planner", global_kind,
              "--local-planner", local_kind, "--speed", str(PEER_SPEED[local_kind]), "--node", node,
              "--out", os.path.join(OUT, "planning_peer", key)]
-            + (["--node-setup", node_setup] if node_setup else []), f"bench_planning_peer_{key}.json")
+            + (["--node-setup", node_setup] if node_setup else []),
+            f"bench_planning_peer_{global_kind}_{local_kind}.json")
     return {"combos": combos}
 
 

@@ -117,6 +117,10 @@ class RoslaunchSession:
         """True while roslaunch runs."""
         return self.proc is not None and self.proc.poll() is None
 
+    def status(self):
+        """roslaunch's exit status, None while it runs or before it started."""
+        return self.proc.returncode if self.proc is not None else None
+
     def stop(self, grace=20.0):
         """SIGINT the group (roslaunch's clean shutdown), wait up to grace [s], then
         SIGKILL the group and every process that was below roslaunch."""
@@ -175,6 +179,10 @@ class Roscore:
         """True while roscore runs."""
         return self.proc is not None and self.proc.poll() is None
 
+    def status(self):
+        """roscore's exit status, None while it runs or before it started."""
+        return self.proc.returncode if self.proc is not None else None
+
     def stop(self, grace=20.0):
         stop_process_tree(self.proc, grace)
 
@@ -193,13 +201,14 @@ def print_result(record):
     print(RESULT_PREFIX + json.dumps(record), flush=True)
 
 
-CHILD_STOP_GRACE = 30.0   # [s] a child run stopping (its graph shut down) before it is killed
+CHILD_STOP_GRACE = 60.0   # [s] for a child run to stop its graph (move_base 15 s, the launch 25 s at most)
 
 
 def exit_on_sigterm():
     """Make SIGTERM end this process as Ctrl-C would, through its with-blocks and finally
     clauses, so that a benchmark stopped by `kill PID` stops the graph it started."""
     def _exit(signum, frame):
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)   # once: a second kill must not cut the cleanup short
         raise SystemExit(128 + signum)
     signal.signal(signal.SIGTERM, _exit)
 
@@ -207,16 +216,18 @@ def exit_on_sigterm():
 def child_result(cmd):
     """Run cmd (a child run of a benchmark script: rospy starts once per process, so each
     run has its own) to its end; -> (record, None) from its last print_result line, or
-    (None, what went wrong: its exit status and the tail of its output). Interrupted (Ctrl-C,
-    or SIGTERM after exit_on_sigterm), the child gets SIGTERM and CHILD_STOP_GRACE to stop
-    what it started before it is killed."""
+    (None, what went wrong: its exit status and the tail of its output). Interrupted, the
+    child has CHILD_STOP_GRACE to stop what it started before it is killed: after Ctrl-C
+    (SIGINT reached it too, through the terminal's process group) it is only waited for;
+    otherwise (SIGTERM after exit_on_sigterm, an error) it gets SIGTERM first."""
     with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) as proc:
         try:
             out, _ = proc.communicate()
-        except BaseException:
-            proc.terminate()
+        except BaseException as e:
+            if not isinstance(e, KeyboardInterrupt):
+                proc.terminate()
             try:
-                proc.wait(CHILD_STOP_GRACE)
+                proc.communicate(timeout=CHILD_STOP_GRACE)   # drained, so it cannot block on a full pipe
             except subprocess.TimeoutExpired:
                 proc.kill()
             raise
@@ -286,11 +297,12 @@ def tail(path, n=30):
 
 
 def check_alive(watch, what):
-    """RuntimeError naming the first of watch (one Watched-like thing or a sequence) that
-    has ended, its exit status and the last lines of its log, while waiting for what."""
+    """RuntimeError naming the first of watch (one Watched-like thing, or a list or tuple
+    of them) that has ended, its exit status and the last lines of its log, while waiting
+    for what."""
     for w in (watch if isinstance(watch, (list, tuple)) else [watch] if watch is not None else []):
         if not w.alive():
-            status = w.status() if hasattr(w, "status") else None
+            status = w.status()
             said = f" (exit status {status})" if status is not None else ""
             log = f"; last lines of {w.log_path}:\n{tail(w.log_path)}" if w.log_path else ""
             raise RuntimeError(f"{w.name} ended{said} while waiting for {what}{log}")

@@ -203,7 +203,7 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
 
     try:
         import rospy
-        core = roscore.start().proc
+        roscore.start()
         master = roscore.master
         master.setParam("/use_sim_time", True)
         for k, v in params.items():
@@ -211,7 +211,7 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
         master.setParam(f"/{NODE_NAME}/seed", int(seed))
         node = start("node", node_command(node_cmd),
                      sourced_env(node_setup, env) if node_setup else None)
-        alive = [Watched.process("roscore", core, logs["roscore"]), Watched.process(NODE_NAME, node, logs["node"])]
+        alive = [roscore, Watched.process(NODE_NAME, node, logs["node"])]
         rospy.init_node("bench_slam_bag", anonymous=True, disable_signals=True)
         rec = Recorder()
         from rosgraph_msgs.msg import Clock

@@ -142,7 +142,8 @@ def summarize(header, runs):
             "geodesic_ratio_median": median(r["geodesic_ratio"] for r in runs),
             "failed_pairs": [r["pair"] for r in runs if not r["reached"]],
             "cpu_s": sum(cpu) if runs and None not in cpu else None,
-            "late_cycles": sum(r.get("late_cycles") or 0 for r in runs),
+            "late_cycles": (None if any(r.get("late_cycles") is None for r in runs)
+                            else sum(r["late_cycles"] for r in runs)),
             "runs_detail": runs}
 
 

@@ -32,7 +32,6 @@ def test_potential_matches_reference_dijkstra(seed):
         npt.assert_allclose(fast, slow, rtol=1e-12)
 
 
-
 @pytest.mark.parametrize("seed", range(3))
 def test_reduced_weights_equal_the_numpy_reference(seed):
     """A*'s reduced edge weights (one compiled pass over the CSR rows) against the NumPy

@@ -325,7 +325,8 @@ def _line(m, x0, y0, x1, y1):
 
 
 @pytest.mark.parametrize("walls", ["ahead", "ahead and along the side", "ahead and along the side at 2 degrees",
-                                   "ahead and behind", "ahead and closing in on a rear corner"])
+                                   "ahead and behind", "ahead and closing in on a rear corner",
+                                   "ahead, pressed into the side and behind"])
 def test_backs_up_off_a_touched_obstacle_but_not_onto_another(fp, walls):
     """The nose on a wall's cells (the outline touches them, so every sample fails, the
     backing one too): the robot backs up at escape_vel, as the real planner does, also
@@ -349,13 +350,16 @@ def test_backs_up_off_a_touched_obstacle_but_not_onto_another(fp, walls):
         _box(m, -1.5, 0.31, 0.5, 0.45)             # on the left edge's cells, all along
     if walls == "ahead and along the side at 2 degrees":
         _line(m, 0.35, 0.33, -1.5, 0.33 - 1.85 * math.tan(math.radians(2.0)))
+    if walls == "ahead, pressed into the side and behind":   # a side wall 2 cells deep licenses no wall behind
+        _box(m, -1.5, 0.22, 0.5, 0.45)
+        _box(m, -0.55, -1.0, -0.40, 1.0)
     if walls == "ahead and closing in on a rear corner":
         _line(m, -0.3, 0.38, -1.5, 0.38 - 1.2 * math.tan(math.radians(13.0)))  # 5.5 cm off the corner
     p = _planner(fp)
     p.set_plan(np.column_stack([np.full(30, 0.0), np.linspace(0.0, 1.5, 30)]), 0.0)
     r = p.compute_velocity((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), m)
     assert r.n_valid == 0 and r.mode == "escape"
-    if walls in ("ahead and behind", "ahead and closing in on a rear corner"):
+    if walls in ("ahead and behind", "ahead and closing in on a rear corner", "ahead, pressed into the side and behind"):
         assert not r.ok and r.cmd == (0.0, 0.0, 0.0) and "would drive the rear onto an obstacle" in r.reason
         assert not p.escaping
     else:

@@ -60,8 +60,9 @@ Backing up in escape mode is commanded even when its trajectory meets an obstacl
 in the real planner: the outline check fails for every sample, the backing one too, as
 soon as the robot's current outline touches a lethal cell. It is refused where there is
 no way to the plan (cost -2), as in the real planner, and where it would bring the
-footprint onto a lethal cell it does not touch now (backs_onto_obstacle: a wall behind,
-or one closing in on a rear corner), where the real planner backs into it.
+footprint deeper onto a lethal cell than contact or than the robot already is in that
+lane (backs_onto_obstacle: a wall behind, or one closing in on a rear corner; a side wall
+it slides along is let through), where the real planner backs into it.
 
 Where else this differs from the real node: the goal is the plan's last point (the real node
 takes the last point of the windowed plan: the same whenever the goal is in the local
@@ -465,11 +466,11 @@ def backs_onto_obstacle(costmap, polygon, pose, distance):
 
     The footprint's clearance to a lethal cell is the signed distance of the cell's centre
     from its outline (negative inside). Cells the back-up moves away from (the wall ahead
-    that made every sample fail) do not count. Of the others, the back-up must not bring
-    any more than a quarter cell deeper than contact (the cell's square reaching the
-    outline), nor than the deepest of them is now: a wall along the side the robot already
-    touches may stay touched as the robot slides along it, a wall behind it or one that
-    closes in on a rear corner may not."""
+    that made every sample fail) do not count. Each of the others may come no more than a
+    quarter cell deeper than the deeper of contact (the cell's square reaching the outline)
+    and the deepest cell of its lane (within a cell sideways, in the robot's frame) now: a
+    wall along the side the robot already touches may stay touched as the robot slides
+    along it, a wall behind it or one that closes in on a rear corner may not."""
     res = costmap.resolution
     reach = float(np.hypot(polygon[:, 0], polygon[:, 1]).max()) + distance + 2.0 * res
     rows, cols = np.nonzero(costmap.data == LETHAL_OBSTACLE)
@@ -485,11 +486,16 @@ def backs_onto_obstacle(costmap, polygon, pose, distance):
     d = polygon_signed_distance(polygon, rx[None, :] + back[:, None], ry[None, :])  # (steps, cells)
     now, closest = d[0], d.min(axis=0)
     eps = 1e-3 * res
-    moving_away = (closest >= now - eps) & (d[-1] > now + eps)
-    if moving_away.all():
+    keep = ~((closest >= now - eps) & (d[-1] > now + eps))     # not moving away
+    now, closest, ry = now[keep], closest[keep], ry[keep]
+    if len(now) == 0:
         return False
-    ref = min(BACKUP_CONTACT * res, float(now[~moving_away].min()))
-    return bool(closest[~moving_away].min() < ref - BACKUP_SLACK * res)
+    # how deep each may go: contact, or the deepest cell in its lane (within a cell
+    # sideways) is now, whichever is deeper; a wall the side is pressed into does not
+    # license a wall behind
+    lane = np.abs(ry[:, None] - ry[None, :]) <= res
+    ref = np.minimum(BACKUP_CONTACT * res, np.where(lane, now[None, :], np.inf).min(axis=1))
+    return bool((closest < ref - BACKUP_SLACK * res).any())
 
 
 def footprint_cells(costmap, polygon, pose):
