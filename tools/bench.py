@@ -346,19 +346,16 @@ PEER_SPEED = {"dwa": 1.0, "trajectory": 3.0, "trajectory-dwa": 3.0}
 def bench_planning_peer(node, node_setup=None):
     """bench_move_base_live.py: the move_base executable `node` (node_setup: the bash file
     its environment needs) live on the willow pairs of planning's closed loop, for each
-    PEER_COMBOS combination; {"combos": {combination_key: result}}."""
-    sys.path.insert(0, os.path.join(WS, "src", "my_summit_path_planning", "scripts"))
-    from bench_planning_core import combination_key
+    PEER_COMBOS combination; {"combos": {"<global>_<local>": result}}."""
     combos = {}
     for global_kind, local_kind in PEER_COMBOS:
-        key = combination_key("willow", global_kind, local_kind)
+        key = f"{global_kind}_{local_kind}"
         combos[key] = _run_script(
             "my_summit_path_planning", "bench_move_base_live.py",
             ["--world", "willow", "--pairs", str(PEER_WILLOW_PAIRS), "--global-planner", global_kind,
              "--local-planner", local_kind, "--speed", str(PEER_SPEED[local_kind]), "--node", node,
              "--out", os.path.join(OUT, "planning_peer", key)]
-            + (["--node-setup", node_setup] if node_setup else []),
-            f"bench_planning_peer_{global_kind}_{local_kind}.json")
+            + (["--node-setup", node_setup] if node_setup else []), f"bench_planning_peer_{key}.json")
     return {"combos": combos}
 
 

@@ -92,12 +92,19 @@ LAUNCH = """<launch>
 
 
 # ----------------------------------------------------------------- judging
+def combination(global_kind, local_kind):
+    """The config's MoveBaseParams as bench_planning_core.combination_params sets them for
+    these planner kinds (GLOBAL_KINDS with the course's NavfnROS choices, LOCAL_KINDS)."""
+    from my_summit_path_planning.params import load_move_base_params
+    return core.combination_params(load_move_base_params(core.CONFIG), global_kind, local_kind)
+
+
 def goal_rule(global_kind, local_kind):
     """The local planner's xy_goal_tolerance [m], yaw_goal_tolerance [rad] and max_vel_x
     [m/s] as the config and LOCAL_KINDS give them, and both planners' type strings."""
-    from my_summit_path_planning.params import build_costmap, load_move_base_params
+    from my_summit_path_planning.params import build_costmap
     from my_summit_path_planning.plugins import MoveBasePlugins
-    p = core.combination_params(load_move_base_params(core.CONFIG), global_kind, local_kind)
+    p = combination(global_kind, local_kind)
     plugins = MoveBasePlugins(p, footprint=build_costmap(p.local_costmap, "local_costmap").footprint)
     cfg = plugins.local_planner.config
     return {"local_type": plugins.local_type, "global_type": plugins.global_type,
@@ -157,21 +164,20 @@ def node_command(node=None):
 def load_node_params(global_kind, local_kind):
     """The config's files into /move_base (CONFIG_FILES, as move_base.launch: dictionaries
     merged), then base_global_planner / base_local_planner and their namespaces' parameters
-    as bench_planning_core.combination_params sets them (GLOBAL_KINDS with the course's
-    NavfnROS choices, LOCAL_KINDS)."""
+    as combination() has them."""
     import rosparam
     from my_summit_path_planning.nav_core import namespace_of
     for name, ns in CONFIG_FILES:
         for params, where in rosparam.load_file(os.path.join(core.CONFIG, name),
                                                 default_namespace=f"/{NODE_NAME}/{ns}".rstrip("/") + "/"):
             rosparam.upload_params(where, params)
-    from my_summit_path_planning.params import load_move_base_params
-    p = core.combination_params(load_move_base_params(core.CONFIG), global_kind, local_kind)
+    p = combination(global_kind, local_kind)
     for key in ("base_global_planner", "base_local_planner"):
         type_name = getattr(p.move_base, key)
+        ns = namespace_of(type_name)
         rosparam.set_param_raw(f"/{NODE_NAME}/{key}", type_name)
-        for k, v in (p.namespaces.get(namespace_of(type_name)) or {}).items():
-            rosparam.set_param_raw(f"/{NODE_NAME}/{namespace_of(type_name)}/{k}", v)
+        for k, v in (p.namespaces.get(ns) or {}).items():
+            rosparam.set_param_raw(f"/{NODE_NAME}/{ns}/{k}", v)
 
 
 class Recorder:
@@ -346,8 +352,7 @@ def main(argv=None):
         pair = json.loads(args.child)
         try:
             r = run_pair(world_yaml, pair, pair["pair"], args.global_planner, args.local_planner, rule, out,
-                         args.speed, args.node,
-                         args.node_setup)
+                         args.speed, args.node, args.node_setup)
         except (RuntimeError, ValueError, OSError) as e:
             print(f"bench_move_base_live: error: pair {pair['pair']}: {e}", flush=True)
             return 1
