@@ -157,6 +157,14 @@ def test_our_move_base_drives_a_builtin_pair_live(tmp_path):
     assert run["xy_error_m"] <= 0.15 and math.isfinite(run["time_s"]) and run["time_s"] < run["limit_s"]
     assert res["reached_share"] == 1.0 and res["failed_pairs"] == [] and res["cpu_s"] > 0.0
     assert run["driven_m"] >= 0.9 * math.hypot(run["goal"][0] - run["start"][0], run["goal"][1] - run["start"][1])
+    # the trace: from the goal to the result every TRACE_DT, ending where the robot was judged
+    lines = (tmp_path / "o" / "pair01_trace.csv").read_text().splitlines()
+    assert lines[0] == "t,x,y,yaw,cmd_vx,cmd_wz"
+    rows = [[float(v) for v in line.split(",")] for line in lines[1:]]
+    ts = [r[0] for r in rows]
+    assert ts == sorted(ts) and ts[0] < 1.0 and ts[-1] >= run["time_s"] - 1.0 and len(rows) >= run["time_s"] / 0.5
+    assert math.hypot(rows[-1][1] - run["final"][0], rows[-1][2] - run["final"][1]) < 0.1
+    assert max(r[4] for r in rows) > 0.1   # the command was recorded (it drove forward)
 
 
 def test_late_cycles_counts_move_bases_warning(tmp_path):

@@ -13,7 +13,8 @@ combination_params has them (--global-planner, --local-planner). One goal
 through the move_base action (summit_nav_common.ros.action_client.SimpleActionClient, after
 the robot has stood for SETTLE_S so the costmaps have seen the laser); recorded: the ground
 truth (/base_pose_ground_truth), /collisions, the action's result, the first plan
-(~<global planner>/plan), the time to the result in simulated time, the node's CPU seconds.
+(~<global planner>/plan), the time to the result in simulated time, the node's CPU seconds,
+and a trace of pose and command (pairNN_trace.csv in --out) to see where a pair went wrong.
 
 A pair is reached when the action SUCCEEDED with the robot within xy_goal_tolerance + 0.05 m
 and yaw_goal_tolerance + 0.05 rad of the goal (the local planner's config), as the offline
@@ -71,6 +72,7 @@ START_TIMEOUT = 120.0     # [s wall] for the launch and the move_base action ser
 SETTLE_S = 3.0            # [s sim] the robot stands this long before its goal (costmaps see the laser)
 WALL_FACTOR = 20.0        # a pair is stopped after this x its sim time limit of wall time (a stalled clock)
 POLL_S = 0.02             # [s wall]
+TRACE_DT = 0.2            # [s sim] the trace's sampling (pairNN_trace.csv beside the logs)
 SUCCEEDED = 3             # actionlib_msgs/GoalStatus
 STATE_NAMES = {0: "PENDING", 1: "ACTIVE", 2: "PREEMPTED", 3: "SUCCEEDED", 4: "ABORTED", 5: "REJECTED",
                6: "PREEMPTING", 7: "RECALLING", 8: "RECALLED", 9: "LOST"}
@@ -181,26 +183,48 @@ def load_node_params(global_kind, local_kind):
 
 
 class Recorder:
-    """Ground truth, /collisions and the first plan of the running graph."""
+    """Ground truth, /collisions, the first plan and the command of the running graph; while
+    counting, a trace of (t, x, y, yaw, commanded vx, wz) every TRACE_DT of simulated time."""
 
     def __init__(self, plan_topic):
         import rospy
+        from geometry_msgs.msg import Twist
         from nav_msgs.msg import Odometry, Path
         from std_msgs.msg import UInt32
         self.lock = threading.Lock()
         self.pose, self.collisions, self.plan_m, self.driven_m, self.counting = None, None, None, 0.0, False
+        self.cmd, self.trace = (0.0, 0.0), []
         self.subs = [rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=10),
                      rospy.Subscriber("/collisions", UInt32, self._on_collisions, queue_size=10),
-                     rospy.Subscriber(plan_topic, Path, self._on_plan, queue_size=1)]
+                     rospy.Subscriber(plan_topic, Path, self._on_plan, queue_size=1),
+                     rospy.Subscriber(REMAPS[0].split(":=")[1], Twist, self._on_cmd, queue_size=10)]
 
     def _on_truth(self, m):
         q = m.pose.pose.orientation
         pose = (m.pose.pose.position.x, m.pose.pose.position.y,
                 math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z)))
+        t = m.header.stamp.to_sec()
         with self.lock:
             if self.counting and self.pose is not None:
                 self.driven_m += math.hypot(pose[0] - self.pose[0], pose[1] - self.pose[1])
+            if self.counting and (not self.trace or t - self.trace[-1][0] >= TRACE_DT):
+                self.trace.append((t,) + pose + self.cmd)
             self.pose = pose
+
+    def _on_cmd(self, m):
+        with self.lock:
+            self.cmd = (m.linear.x, m.angular.z)
+
+    def write_trace(self, path, t0):
+        """The trace as CSV (time from the goal), written whole or not at all."""
+        with self.lock:
+            rows = list(self.trace)
+        tmp = path + ".tmp"
+        with open(tmp, "w") as f:
+            f.write("t,x,y,yaw,cmd_vx,cmd_wz\n")
+            for t, x, y, yaw, vx, wz in rows:
+                f.write(f"{t - t0:.2f},{x:.3f},{y:.3f},{yaw:.3f},{vx:.3f},{wz:.3f}\n")
+        os.replace(tmp, path)
 
     def _on_collisions(self, m):
         with self.lock:
@@ -268,6 +292,7 @@ def run_pair(world_yaml, pair, k, global_kind, local_kind, rule, out, speed=1.0,
             with rec.lock:
                 final, coll, plan_m, driven = rec.pose, rec.collisions - coll0, rec.plan_m, rec.driven_m
             state, text = client.get_state(), client.get_goal_status_text()
+            rec.write_trace(stem + "_trace.csv", t0)
         finally:
             stop_process_tree(node_proc, grace=10.0)
             if rospy is not None:
