@@ -48,7 +48,10 @@ SECTIONS = {
                  "planner over seeded goal pairs"),
     "planning_peer": ("the real move_base (or any move_base-compatible executable, given with --move-base) live "
                       "on planning's 20 willow-full-0.05 goal pairs, navfn with each local planner, judged as its "
-                      "closed loop: the oracle for its targets"),
+                      "closed loop: the oracle for its targets. The real noetic TrajectoryPlannerROS scores "
+                      "in metres whatever meter_scoring says (an uninitialized member; docs/planners.md), so its "
+                      "rows weigh obstacles against the plan differently from ours, which scores in cells as the "
+                      "course's YAML asks"),
     "stack_cpu": ("map_server + amcl + move_base (the course's config) on a fixed, seeded 10-goal run on the "
                   "built-in world at 1x real time: CPU per simulated second and peak RSS per node, goals reached, "
                   "collisions; where move_base's time goes (one profiled run)"),
