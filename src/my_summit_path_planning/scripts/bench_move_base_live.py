@@ -60,7 +60,8 @@ NODE = os.path.normpath(os.path.join(HERE, "..", "nodes", "move_base"))
 NODE_NAME = "move_base"
 WORLDS = dict(core.WORLDS)
 DEFAULT_PAIRS = {"builtin": 50, "willow": 20}   # bench_planning's closed loop
-REMAPS = ("cmd_vel:=/summit_xl_control/cmd_vel", "odom:=/odom")
+CMD_VEL = "/summit_xl_control/cmd_vel"   # the simulator's command topic (move_base's cmd_vel remapped to it)
+REMAPS = (f"cmd_vel:={CMD_VEL}", "odom:=/odom")
 # The config files in the order move_base.launch loads them: (file, namespace under /move_base).
 CONFIG_FILES = (("move_base_params.yaml", ""), ("costmap_common_params.yaml", "global_costmap"),
                 ("costmap_common_params.yaml", "local_costmap"), ("global_costmap_params.yaml", ""),
@@ -197,12 +198,11 @@ class Recorder:
         self.subs = [rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=10),
                      rospy.Subscriber("/collisions", UInt32, self._on_collisions, queue_size=10),
                      rospy.Subscriber(plan_topic, Path, self._on_plan, queue_size=1),
-                     rospy.Subscriber(REMAPS[0].split(":=")[1], Twist, self._on_cmd, queue_size=10)]
+                     rospy.Subscriber(CMD_VEL, Twist, self._on_cmd, queue_size=10)]
 
     def _on_truth(self, m):
-        q = m.pose.pose.orientation
-        pose = (m.pose.pose.position.x, m.pose.pose.position.y,
-                math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z)))
+        from summit_nav_common.geometry import quaternion_to_yaw
+        pose = (m.pose.pose.position.x, m.pose.pose.position.y, quaternion_to_yaw(m.pose.pose.orientation))
         t = m.header.stamp.to_sec()
         with self.lock:
             if self.counting and self.pose is not None:
@@ -217,14 +217,11 @@ class Recorder:
 
     def write_trace(self, path, t0):
         """The trace as CSV (time from the goal), written whole or not at all."""
+        from summit_nav_common.files import write_atomic
         with self.lock:
             rows = list(self.trace)
-        tmp = path + ".tmp"
-        with open(tmp, "w") as f:
-            f.write("t,x,y,yaw,cmd_vx,cmd_wz\n")
-            for t, x, y, yaw, vx, wz in rows:
-                f.write(f"{t - t0:.2f},{x:.3f},{y:.3f},{yaw:.3f},{vx:.3f},{wz:.3f}\n")
-        os.replace(tmp, path)
+        write_atomic(path, "t,x,y,yaw,cmd_vx,cmd_wz\n" + "".join(
+            f"{t - t0:.2f},{x:.3f},{y:.3f},{yaw:.3f},{vx:.3f},{wz:.3f}\n" for t, x, y, yaw, vx, wz in rows))
 
     def _on_collisions(self, m):
         with self.lock:
