@@ -42,14 +42,23 @@ def test_ignored_parameters_are_named_when_they_ask_for_something():
         ("shutdown_costmaps", "make_plan_clear_costmap")
 
 
-def test_footprint_padding_at_the_top_level_is_accepted_and_named_as_ignored():
-    """navigation_tutorials' move_base.xml sets ~footprint_padding, which move_base never reads
-    (each costmap reads its own): accepted, named as ignored, the costmaps' own value kept."""
-    p = move_base_params({"footprint_padding": 0.01, "global_costmap": {"footprint_padding": 0.02}})
-    assert p.ignored == ("footprint_padding",)
+def test_names_move_base_does_not_read_are_left_unread_and_noted():
+    """The real move_base never asks for a name it does not know, so configurations carry
+    some and run: navigation_tutorials' move_base.xml sets ~footprint_padding (each costmap
+    reads its own), husky_navigation's planner.yaml the misspelt recovery_behaviour_enabled.
+    Ours runs too, the costmaps' own values kept, and notes each name once with the
+    nearest one it reads."""
+    p = move_base_params({"footprint_padding": 0.01, "recovery_behaviour_enabled": True,
+                          "global_costmap": {"footprint_padding": 0.02, "meter_scoring": True}})
     assert p.global_costmap.footprint_padding == 0.02
-    with pytest.raises(ParamError, match="footprint_pading"):   # a misspelt name is still an error
-        move_base_params({"footprint_pading": 0.01})
+    assert p.move_base.recovery_behavior_enabled is True
+    assert p.notes == (
+        "move_base: 'footprint_padding' is not a parameter this node reads; ignored",
+        "move_base: 'recovery_behaviour_enabled' is not a parameter this node reads; ignored "
+        "(did you mean 'recovery_behavior_enabled'?)")
+    assert p.global_costmap.notes[-1] == \
+        "move_base/global_costmap: 'meter_scoring' is not a parameter this node reads; ignored"
+    assert p.ignored == ()
 
 
 def test_missing_planner_namespaces_mean_defaults(footprint):
@@ -98,7 +107,6 @@ def test_course_config_unchanged(footprint):
     ({"recovery_behavior_enabled": 1}, r"'recovery_behavior_enabled' must be bool"),
     ({"max_planning_retries": 2.5}, r"'max_planning_retries' must be int"),
     ({"base_global_planner": 3}, r"'base_global_planner' must be str"),
-    ({"planner_patiense": 5.0}, r"unknown parameter 'planner_patiense'"),
     ({"recovery_behaviors": "rotate"}, r"'recovery_behaviors' must be a list"),
     ({"global_costmap": {"resolution": "fine"}}, r"/move_base/global_costmap: 'resolution' must be float"),
 ])
@@ -109,7 +117,6 @@ def test_wrong_types_fail_at_once_naming_the_parameter(ns, match):
 
 @pytest.mark.parametrize("ns,match", [
     ({"NavfnROS": {"allow_unknown": "yes"}}, r"NavfnROS: 'allow_unknown' must be bool"),
-    ({"DWAPlannerROS": {"max_vel_xx": 1.0}}, r"DWAPlannerROS: unknown parameter 'max_vel_xx'"),
     ({"DWAPlannerROS": {"vx_samples": "many"}}, r"DWAPlannerROS: 'vx_samples' must be int"),
     ({"base_global_planner": "carrot_planner/CarrotPlanner"},
      r"base_global_planner: unknown type 'carrot_planner/CarrotPlanner'; known types are: "
@@ -252,3 +259,24 @@ def test_dwa_says_once_that_it_does_not_scale_the_footprint_with_speed(footprint
     assert any("use_dwa false is ignored" in n for n in pl.notes)
     pl = MoveBasePlugins(move_base_params(dwa), footprint=footprint)
     assert not any("use_dwa" in n for n in pl.notes) and any("x1.2" in n for n in pl.notes)
+
+
+def test_dwa_reads_renamed_parameters_as_dwa_local_planner_does(footprint):
+    """DWAPlannerROS::initialize copies six renamed parameters to their new names when only
+    the old one is set (nav_core::warnRenamedParameter, with its warning) and reads nothing
+    else under an old name: base_local_planner's acc_lim_th and vtheta_samples do nothing
+    there (husky_navigation's DWAPlannerROS sets acc_lim_th). dynamic_reconfigure raises a
+    sample count below its minimum, 1 (turtlebot3_navigation sets vy_samples: 0)."""
+    params = {"max_rot_vel": 2.0, "min_rot_vel": 0.3, "acc_limit_trans": 1.0, "max_trans_vel": 0.4,
+              "max_vel_trans": 0.5, "acc_lim_th": 9.0, "vtheta_samples": 40, "vy_samples": 0}
+    pl = MoveBasePlugins(move_base_params({"base_local_planner": DWA, "DWAPlannerROS": params}),
+                         footprint=footprint)
+    c = pl.local_planner.config
+    assert (c.max_vel_theta, c.min_vel_theta, c.acc_lim_trans) == (2.0, 0.3, 1.0)
+    assert c.max_vel_trans == 0.5                     # the new name wins; the old one is not read
+    assert (c.acc_lim_theta, c.vth_samples, c.vy_samples) == (3.2, 20, 1)
+    notes = "\n".join(pl.notes)
+    assert "Parameter max_rot_vel is deprecated (and will not load properly). Use max_vel_theta instead." in notes
+    assert "max_trans_vel is deprecated" not in notes
+    assert "DWAPlannerROS: 'acc_lim_th' is not a parameter this node reads; ignored" in notes
+    assert "DWAPlannerROS: 'vy_samples' 0 raised to 1" in notes

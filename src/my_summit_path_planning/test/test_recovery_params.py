@@ -220,7 +220,6 @@ def test_config_files_load():
 
 
 @pytest.mark.parametrize("fname,ns,key,value,match", [
-    ("dwa_local_planner_params.yaml", "DWAPlannerROS", "max_vel_xx", 1.0, "unknown parameter"),
     ("dwa_local_planner_params.yaml", "DWAPlannerROS", "vx_samples", "many", "must be int"),
     ("navfn_global_planner_params.yaml", "NavfnROS", "allow_unknown", "yes", "must be bool"),
     ("navfn_global_planner_params.yaml", "NavfnROS", "default_tolerance", -1.0, ">= 0"),

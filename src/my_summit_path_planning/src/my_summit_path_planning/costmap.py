@@ -323,6 +323,7 @@ class Layer:
         self.name = name
         self.enabled = True
         self.layered = None
+        self.notes = []   # warnings about its parameters, logged once when it is added
 
     def initialize(self, layered):
         """Called once by LayeredCostmap.add_layer."""
@@ -422,6 +423,8 @@ class LayeredCostmap:
             raise CostmapError(f"two costmap layers are named '{layer.name}'")
         layer.initialize(self)
         self.layers.append(layer)
+        for note in layer.notes:
+            self.warn_once(note)
         return layer
 
     def layer(self, name):

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from summit_nav_common.params import unread_notes
 
 from .cost_values import (FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE,
                           NO_INFORMATION)
@@ -30,10 +31,6 @@ VOXEL_TYPES = ("costmap_2d::VoxelLayer",)
 INFLATION_TYPES = ("costmap_2d::InflationLayer",)
 
 
-def _check_params(params, allowed, where):
-    unknown = sorted(set(params) - set(allowed))
-    if unknown:
-        raise CostmapError(f"{where}: unknown parameter(s) {unknown}; known: {sorted(allowed)}")
 
 
 def _number(params, key, default, where, minimum=None):
@@ -72,7 +69,7 @@ class StaticLayer(Layer):
         super().__init__(name)
         params = dict(params or {})
         where = f"static layer '{name}'"
-        _check_params(params, self.PARAMS, where)
+        self.notes += unread_notes(where, params, self.PARAMS)
         self.enabled = _flag(params, "enabled", True, where)
         self.track_unknown_space = _flag(params, "track_unknown_space", True, where)
         self.use_maximum = _flag(params, "use_maximum", False, where)
@@ -397,7 +394,7 @@ class ObstacleLayer(Layer):
             raise CostmapError(f"{where}: 'observation_sources' must be a space-separated string")
         self.source_names = sources_txt.split()
         allowed = set(self.PARAMS) | set(self.source_names)
-        _check_params(params, allowed, where)
+        self.notes += unread_notes(where, params, allowed)
         self.enabled = _flag(params, "enabled", True, where)
         self.obstacle_range = _number(params, "obstacle_range", 2.5, where, 0.0)
         self.raytrace_range = _number(params, "raytrace_range", 3.0, where, 0.0)
@@ -412,7 +409,7 @@ class ObstacleLayer(Layer):
             sp = params.get(s, {})
             if not isinstance(sp, dict):
                 raise CostmapError(f"{where}: source '{s}' must be a dict of parameters")
-            _check_params(sp, self.SOURCE_PARAMS, f"{where} source '{s}'")
+            self.notes += unread_notes(f"{where} source '{s}'", sp, self.SOURCE_PARAMS)
             dt = sp.get("data_type", "LaserScan")
             if dt not in ("LaserScan", "PointCloud", "PointCloud2"):
                 raise CostmapError(f"{where} source '{s}': data_type must be LaserScan, "
@@ -595,7 +592,7 @@ class InflationLayer(Layer):
         super().__init__(name)
         params = dict(params or {})
         where = f"inflation layer '{name}'"
-        _check_params(params, self.PARAMS, where)
+        self.notes += unread_notes(where, params, self.PARAMS)
         self.enabled = _flag(params, "enabled", True, where)
         self.inflation_radius = _number(params, "inflation_radius", 0.55, where, 0.0)
         self.cost_scaling_factor = _number(params, "cost_scaling_factor", 10.0, where, 0.0)
@@ -675,18 +672,15 @@ class VoxelLayer(ObstacleLayer):
         for key in ("unknown_threshold", "mark_threshold"):
             _number(params, key, 0, where, 0)
         _flag(params, "publish_voxel_map", False, where)
-        self._ignored = [k for k in self.IGNORED_2D if k in params]
         super().__init__(name, {k: v for k, v in params.items() if k not in self.VOXEL_PARAMS})
+        self.notes += [f"voxel layer '{name}': '{k}' has no meaning for a 2D costmap; ignored"
+                       for k in self.IGNORED_2D if k in params]
 
     @property
     def top_z(self):
         """[m] the top of the voxel grid."""
         return self.origin_z + self.z_voxels * self.z_resolution
 
-    def initialize(self, layered):
-        super().initialize(layered)
-        for key in self._ignored:
-            self._warn(f"voxel layer '{self.name}': '{key}' has no meaning for a 2D costmap; ignored")
 
     def height_allows(self, z, what):
         marks, clears = super().height_allows(z, what)

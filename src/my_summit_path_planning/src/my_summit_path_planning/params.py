@@ -7,9 +7,11 @@ and ~local_costmap, each plugin's under its own namespace (~NavfnROS, ~DWAPlanne
 file layout (load_move_base_params): costmap_common_params.yaml is loaded into both
 costmap namespaces.
 
-Each parameter is declared once, in its dataclass, with type, unit and default. An
-unknown name or a value of the wrong type raises ParamError naming the file section,
-the parameter and what is allowed. DWA's older (Kinetic) names are accepted as aliases.
+Each parameter is declared once, in its dataclass, with type, unit and default. A value
+of the wrong type raises ParamError naming the file section, the parameter and what is
+allowed. A name no dataclass has is left unread, as the real nodes leave it, and
+reported in the config's notes for the node to log once (summit_nav_common.params).
+DWA's renamed parameters (Kinetic names) are read as dwa_local_planner reads them.
 """
 import dataclasses
 import math
@@ -17,6 +19,8 @@ import os
 from dataclasses import dataclass, field
 
 import yaml
+
+from summit_nav_common.params import unread_note
 
 from .cost_values import FREE_SPACE, NO_INFORMATION
 from . import costmap_params
@@ -29,11 +33,12 @@ CONFIG_FILES = ("move_base_params.yaml", "costmap_common_params.yaml",
                 "navfn_global_planner_params.yaml", "dwa_local_planner_params.yaml",
                 "base_local_planner_params.yaml")
 
-# dwa_local_planner's pre-Melodic names -> current names.
+# dwa_local_planner's renamed parameters, old -> new: the ones DWAPlannerROS::initialize
+# copies to the new name (nav_core::warnRenamedParameter). Other old names (acc_lim_th,
+# vtheta_samples: base_local_planner's) it does not read, nor do we.
 DWA_ALIASES = {"max_trans_vel": "max_vel_trans", "min_trans_vel": "min_vel_trans",
                "max_rot_vel": "max_vel_theta", "min_rot_vel": "min_vel_theta",
-               "rot_stopped_vel": "theta_stopped_vel", "acc_lim_th": "acc_lim_theta",
-               "vtheta_samples": "vth_samples"}
+               "acc_limit_trans": "acc_lim_trans", "rot_stopped_vel": "theta_stopped_vel"}
 
 
 class ParamError(ValueError):
@@ -70,10 +75,6 @@ class MoveBaseConfig:
 # each with the value that matches what this node does (another value is logged as ignored).
 IGNORED_MOVE_BASE_PARAMS = {"shutdown_costmaps": False, "make_plan_clear_costmap": False,
                             "make_plan_add_unreachable_goal": False}
-# Names set at move_base's top level by old configurations that no move_base reads there
-# (the real node leaves them unread; here each is logged once as ignored): costmap_2d reads
-# footprint_padding in each costmap's namespace (navigation_tutorials' move_base.xml sets both).
-UNREAD_MOVE_BASE_PARAMS = ("footprint_padding",)
 
 
 @dataclass
@@ -124,20 +125,26 @@ def _coerce(cls_name, f, value, where):
     return value
 
 
-def from_dict(cls, params, where, aliases=None, extra_ok=()):
-    """Build dataclass cls from a parameter dict; ParamError on unknown names or bad types."""
+def from_dict(cls, params, where, aliases=None, notes=None, internal=()):
+    """Build dataclass cls from a parameter dict; ParamError on a value of the wrong type.
+
+    A name cls has no field for (nor an alias) is not read; its warning is appended to
+    `notes` when a list is given. `internal`: fields that are not parameters (never read
+    from the dict)."""
     if params is None:
         params = {}
     if not isinstance(params, dict):
         raise ParamError(f"{where}: expected a mapping of parameters, got {params!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in internal}
     kwargs = {}
     for key, value in params.items():
         name = (aliases or {}).get(key, key)
-        if name in extra_ok:
-            continue
         if name not in fields:
-            raise ParamError(f"{where}: unknown parameter '{key}'; known: {sorted(fields)}")
+            if notes is not None:
+                notes.append(unread_note(where, key, list(fields) + list(aliases or ())))
+            continue
+        if name in kwargs and key != name:
+            continue  # an old name never overrides the new one (warnRenamedParameter)
         kwargs[name] = _coerce(cls.__name__, fields[name], value, where)
     return cls(**kwargs)
 
@@ -148,23 +155,32 @@ def _positive(where, **values):
             raise ParamError(f"{where}: '{k}' must be > 0, got {v}")
 
 
-def dwa_config(params, where="DWAPlannerROS"):
-    """DWAConfig from the DWAPlannerROS dict (aliases accepted), checked."""
-    cfg = from_dict(DWAConfig, params, where, DWA_ALIASES)
+def dwa_config(params, where="DWAPlannerROS", notes=None):
+    """DWAConfig from the DWAPlannerROS dict (renamed parameters read as the real node
+    reads them), checked. notes (a list): the real node's warnings for renamed names,
+    one per name it does not read, sample counts raised to 1."""
+    notes = [] if notes is None else notes
+    if isinstance(params, dict):
+        notes += [f"Parameter {old} is deprecated (and will not load properly). Use {new} instead."
+                  for old, new in DWA_ALIASES.items() if old in params and new not in params]
+    cfg = from_dict(DWAConfig, params, where, DWA_ALIASES, notes)
     _positive(where, controller_frequency=cfg.controller_frequency, sim_time=cfg.sim_time,
               sim_granularity=cfg.sim_granularity, angular_sim_granularity=cfg.angular_sim_granularity,
               max_vel_theta=cfg.max_vel_theta, acc_lim_x=cfg.acc_lim_x, acc_lim_theta=cfg.acc_lim_theta)
     if cfg.min_vel_x > cfg.max_vel_x or cfg.min_vel_y > cfg.max_vel_y:
         raise ParamError(f"{where}: min_vel_x/y must not exceed max_vel_x/y")
     for k in ("vx_samples", "vy_samples", "vth_samples"):
-        if getattr(cfg, k) < 1:
-            raise ParamError(f"{where}: '{k}' must be >= 1, got {getattr(cfg, k)}")
+        if getattr(cfg, k) < 1:  # dynamic_reconfigure clamps to the .cfg's minimum, 1
+            notes.append(f"{where}: '{k}' {getattr(cfg, k)} raised to 1, its least value "
+                         f"(dwa_local_planner's dynamic_reconfigure clamps it the same way)")
+            setattr(cfg, k, 1)
     return cfg
 
 
-def navfn_config(params, where="NavfnROS"):
-    """NavfnConfig from the NavfnROS dict, checked."""
-    cfg = from_dict(NavfnConfig, params, where)
+def navfn_config(params, where="NavfnROS", notes=None):
+    """NavfnConfig from the NavfnROS dict, checked; notes (a list): one warning per name
+    it does not read."""
+    cfg = from_dict(NavfnConfig, params, where, notes=notes)
     if cfg.default_tolerance < 0:
         raise ParamError(f"{where}: 'default_tolerance' must be >= 0, got {cfg.default_tolerance}")
     return cfg
@@ -178,9 +194,6 @@ def costmap_config(params, where):
     costmap_2d does (costmap_params.to_plugin_layout); its warnings go to ``notes``.
     """
     params = dict(params or {})
-    for internal in ("layer_params", "notes"):
-        if internal in params:
-            raise ParamError(f"{where}: unknown parameter '{internal}'")
     try:
         params, notes = costmap_params.to_plugin_layout(params)
     except costmap_params.PreHydroError as e:
@@ -196,7 +209,7 @@ def costmap_config(params, where):
     # Layer namespaces of the common file are kept even when this costmap does not use them.
     layer_params = {k: v for k, v in params.items() if isinstance(v, dict)}
     rest = {k: v for k, v in params.items() if not isinstance(v, dict)}
-    cfg = from_dict(CostmapConfig, rest, where)
+    cfg = from_dict(CostmapConfig, rest, where, notes=notes, internal=("layer_params", "notes"))
     cfg.layer_params = layer_params
     cfg.notes = notes
     _positive(where, resolution=cfg.resolution, width=cfg.width, height=cfg.height)
@@ -234,6 +247,7 @@ class MoveBaseParams:
     local_costmap: CostmapConfig
     namespaces: dict = field(default_factory=dict)   # {name: {param: value}}
     ignored: tuple = ()      # parameters given a value asking for what this node does not do
+    notes: tuple = ()        # warnings about move_base's own namespace (names it does not read)
 
     def namespace(self, name):
         """The parameters under ~name ({} when missing: the plugin's defaults)."""
@@ -253,24 +267,24 @@ class MoveBaseParams:
 def move_base_params(ns, where="move_base"):
     """MoveBaseParams from move_base's private namespace as a dict (what
     rospy.get_param("~") returns). Every parameter is optional: a missing costmap or
-    plugin namespace means its defaults, as in the real move_base. ParamError naming the
-    parameter for an unknown move_base parameter or a wrong type."""
+    plugin namespace means its defaults, as in the real move_base; a name move_base does
+    not read is left unread and noted. ParamError naming the parameter for a wrong type."""
     if ns is None:
         ns = {}
     if not isinstance(ns, dict):
         raise ParamError(f"{where}: expected a namespace of parameters, got {ns!r}")
     own = {k: v for k, v in ns.items() if not isinstance(v, dict)}
     subs = {k: v for k, v in ns.items() if isinstance(v, dict)}
-    mb = from_dict(MoveBaseConfig, own, where, extra_ok=UNREAD_MOVE_BASE_PARAMS)
+    notes = []
+    mb = from_dict(MoveBaseConfig, own, where, notes=notes)
     if mb.recovery_behaviors is not None and not isinstance(mb.recovery_behaviors, list):
         raise ParamError(f"{where}: 'recovery_behaviors' must be a list of {{name, type}}, "
                          f"got {mb.recovery_behaviors!r}")
     costmaps = {name: costmap_config(subs.pop(name, {}), f"{where}/{name}")
                 for name in ("global_costmap", "local_costmap")}
     return MoveBaseParams(move_base=mb, namespaces=subs,
-                          ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v)
-                          + tuple(k for k in UNREAD_MOVE_BASE_PARAMS if k in own),
-                          **costmaps)
+                          ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v),
+                          notes=tuple(notes), **costmaps)
 
 
 def _read(path):

@@ -50,16 +50,25 @@ def trajectory_planner_limits(params):
 
 
 # -- planners ---------------------------------------------------------------------------------
-GLOBAL_PLANNERS.register("navfn/NavfnROS", lambda params, ctx, where: NavFn(navfn_config(params, where)))
+def _navfn(params, ctx, where):
+    """NavFn from its namespace; .warnings: the names it does not read."""
+    notes = []
+    planner = NavFn(navfn_config(params, where, notes))
+    planner.warnings = notes
+    return planner
+
+
+GLOBAL_PLANNERS.register("navfn/NavfnROS", _navfn)
 GLOBAL_PLANNERS.register("global_planner/GlobalPlanner",
                          lambda params, ctx, where: GlobalPlanner.from_params(params, where))
 
 def _dwa_planner(params, ctx, where):
     """DWAPlanner from its namespace; .warnings names what dwa_local_planner does that it
     does not (move_base logs them once)."""
-    cfg = dwa_config(params, where)
+    notes = []
+    cfg = dwa_config(params, where, notes)
     planner = DWAPlanner(cfg, ctx.footprint)
-    planner.warnings = [
+    planner.warnings = notes + [
         f"~{where}: footprint speed scaling is not implemented: scaling_speed {cfg.scaling_speed} and "
         f"max_scaling_factor {cfg.max_scaling_factor} are ignored (dwa_local_planner checks the footprint "
         f"scaled up to x{1 + cfg.max_scaling_factor:g} at max_vel_trans); the footprint is checked at its size"]
