@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""rostest: the course lesson's navigation_stage configuration drives the robot to its goals.
+"""rostest: a configuration in its own format (the lesson's, a vendor's) drives the robot to its goals.
 
 The .test starts lesson_navigation_stage.launch (simulator on willow-full, map_server in
 its deprecated IMAGE RESOLUTION form, amcl with amcl_node.xml's parameters, move_base
