@@ -7,8 +7,8 @@ import pytest
 
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
-from my_summit_path_planning.layers import (ObstacleLayer, cells_inside_convex, inflation_cost, ray_cells,
-                                            raytrace_reference, scan_to_observation)
+from my_summit_path_planning.layers import (ObstacleLayer, cells_inside_convex, cloud_to_observation,
+                                            inflation_cost, ray_cells, raytrace_reference, scan_to_observation)
 
 SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
 
@@ -113,6 +113,45 @@ def test_obstacle_layer_marks_and_clears(footprint):
     lc.update_map(0.0, 0.0, 0.0)
     assert lc.master.cost_at(1.52, 0.0) == cv.FREE_SPACE
     assert lc.master.cost_at(1.92, 0.0) == cv.LETHAL_OBSTACLE
+
+
+@pytest.mark.parametrize("kind", ["obstacle", "voxel"])
+def test_a_cloud_marks_by_each_point_height_and_clears_along_its_rays(footprint, kind):
+    """costmap_2d's rules for a PointCloud(2) source: the observation buffer keeps only points
+    within the source's [min_obstacle_height, max_obstacle_height] (for clearing too); the
+    layer marks a kept point nearer the sensor than obstacle_range in 3D and not above its
+    own max_obstacle_height (a voxel layer: nor at or above its grid's top); every kept
+    point clears along its ray on the ground."""
+    ltype = {"obstacle": "costmap_2d::ObstacleLayer", "voxel": "costmap_2d::VoxelLayer"}[kind]
+    params = {"o": {"observation_sources": "cam", "max_obstacle_height": 1.2,
+                    "cam": {"data_type": "PointCloud2", "clearing": True, "min_obstacle_height": 0.1,
+                            "max_obstacle_height": 1.6, "obstacle_range": 2.5}}}
+    if kind == "voxel":
+        params["o"].update(origin_z=0.0, z_resolution=0.2, z_voxels=5)      # the grid's top at 1.0 m
+    lc = LayeredCostmap.from_plugins([{"name": "o", "type": ltype}], params, Costmap2D(120, 120, 0.05, -3.0, -3.0),
+                                     footprint, rolling_window=True)
+    layer = lc.layer("o")
+    origin = (0.0, 0.0, 0.5)                     # a camera 0.5 m up
+    pts = [(1.5, 0.0, 0.3),                      # marks
+           (0.0, 1.5, 0.05),                     # below the source's band: dropped
+           (0.0, -1.5, 1.1),                     # in the band, above the voxel grid's top
+           (-1.5, 0.0, 1.4),                     # in the band, above the layer's max_obstacle_height
+           (1.0, 1.0, 0.9),                      # marks (in both)
+           (2.4, -0.5, 1.05),                    # 2.45 m on the ground, 2.51 m in 3D: too far to mark
+           (float("nan"), 0.0, 0.3)]
+    obs = cloud_to_observation(pts, origin, 2.5, 3.0, True, True, 0.1, 1.6, "cam")
+    assert len(obs.points) == 5                  # NaN and the low point dropped
+    layer.add_observation(obs)
+    lc.update_map(0.0, 0.0, 0.0)
+    cost = lambda x, y: lc.master.cost_at(x, y)  # noqa: E731
+    assert cost(1.5, 0.0) == cv.LETHAL_OBSTACLE and cost(1.0, 1.0) == cv.LETHAL_OBSTACLE
+    assert cost(0.0, 1.5) == cv.FREE_SPACE and cost(-1.5, 0.0) == cv.FREE_SPACE
+    assert cost(0.0, -1.5) == (cv.LETHAL_OBSTACLE if kind == "obstacle" else cv.FREE_SPACE)
+    assert cost(2.4, -0.5) == cv.FREE_SPACE
+    # The next cloud sees further along the first ray: that clears the old hit.
+    layer.add_observation(cloud_to_observation([(2.0, 0.0, 0.3)], origin, 2.5, 3.0, True, True, 0.1, 1.6, "cam"))
+    lc.update_map(0.0, 0.0, 0.0)
+    assert cost(1.5, 0.0) == cv.FREE_SPACE and cost(2.0, 0.0) == cv.LETHAL_OBSTACLE
 
 
 @pytest.mark.parametrize("padding", [0.0, 0.02])

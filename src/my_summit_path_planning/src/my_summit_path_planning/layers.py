@@ -188,6 +188,9 @@ class Observation:
     its points in the costmap frame, None when unknown (then no height test);
     min_obstacle_height / max_obstacle_height [m]: the source's height band (costmap_2d's
     observation buffer keeps only points within it); source: its name, for messages.
+    heights: (N,) z [m] of each point in the costmap frame for a point cloud (then z is
+    the sensor's own height and the band was applied when the cloud was read), None for
+    a planar scan.
     """
 
     origin: tuple
@@ -201,6 +204,7 @@ class Observation:
     min_obstacle_height: float = 0.0
     max_obstacle_height: float = 2.0
     source: str = ""
+    heights: np.ndarray = None
 
 
 def scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max,
@@ -245,6 +249,36 @@ def source_observation(src, ranges, angle_min, angle_increment, range_min, range
                                src["marking"], src["clearing"], sensor_z=sensor_z,
                                min_obstacle_height=src["min_obstacle_height"],
                                max_obstacle_height=src["max_obstacle_height"], source=src["name"])
+
+
+def cloud_to_observation(points, origin, obstacle_range=2.5, raytrace_range=3.0, marking=True,
+                         clearing=True, min_obstacle_height=0.0, max_obstacle_height=2.0, source=""):
+    """A point cloud in the costmap frame -> Observation (a PointCloud or PointCloud2 source).
+
+    points: (N, 3) [m]; origin: (x, y, z) [m] of the sensor. As costmap_2d's observation
+    buffer, only finite points within the source's [min_obstacle_height,
+    max_obstacle_height] are kept, for marking and clearing alike; as its obstacle layer,
+    a point marks only when nearer the sensor than obstacle_range in 3D, and every kept
+    point clears along its ray projected on the ground (up to raytrace_range). The
+    layer's own max_obstacle_height is applied per point when it takes the observation.
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    keep = np.isfinite(p).all(axis=1) & (p[:, 2] >= min_obstacle_height) & (p[:, 2] <= max_obstacle_height)
+    p = p[keep]
+    o = np.asarray(origin, dtype=np.float64)
+    mark = np.linalg.norm(p - o, axis=1) < obstacle_range
+    return Observation(origin=(float(o[0]), float(o[1])), points=p[:, :2], mark=mark,
+                       obstacle_range=obstacle_range, raytrace_range=raytrace_range, marking=marking,
+                       clearing=clearing, z=float(o[2]), min_obstacle_height=min_obstacle_height,
+                       max_obstacle_height=max_obstacle_height, source=source, heights=p[:, 2])
+
+
+def source_cloud_observation(src, points, origin):
+    """A point cloud of observation source src (an ObstacleLayer.sources entry) -> its
+    Observation (cloud_to_observation with the source's ranges, flags and height band)."""
+    return cloud_to_observation(points, origin, src["obstacle_range"], src["raytrace_range"], src["marking"],
+                                src["clearing"], src["min_obstacle_height"], src["max_obstacle_height"],
+                                src["name"])
 
 
 def ray_cells(x0, y0, x1, y1):
@@ -454,7 +488,11 @@ class ObstacleLayer(Layer):
 
     def add_observation(self, obs):
         """Queue an Observation for the next update_bounds, after the height tests."""
-        if obs.z is not None:
+        if obs.heights is not None:   # a point cloud: each point marks by its own height
+            what = f"obstacle layer '{self.name}' source '{obs.source}'"
+            obs = dataclasses.replace(obs, mark=np.asarray(obs.mark, dtype=bool) & self.marks_at(obs.heights),
+                                      clearing=obs.clearing and self.clears_from(obs.z, what))
+        elif obs.z is not None:
             what = f"obstacle layer '{self.name}' source '{obs.source}'"
             if not obs.min_obstacle_height <= obs.z <= obs.max_obstacle_height:
                 self._warn(f"{what}: the sensor is at z = {obs.z:.3f} m, outside the source's "
@@ -466,6 +504,15 @@ class ObstacleLayer(Layer):
                 return
             obs = dataclasses.replace(obs, marking=obs.marking and marks, clearing=obs.clearing and clears)
         self._pending.append(obs)
+
+    def marks_at(self, heights):
+        """(N,) bool: which points of a cloud at these heights [m] may mark (costmap_2d's
+        obstacle layer skips a point above its max_obstacle_height)."""
+        return np.asarray(heights) <= self.max_obstacle_height
+
+    def clears_from(self, z, what):
+        """Whether a cloud's sensor at height z [m] may clear (always, in 2D)."""
+        return True
 
     def height_allows(self, z, what):
         """(may mark, may clear) for a planar sensor at height z [m]; warns once when not."""
@@ -648,7 +695,10 @@ class VoxelLayer(ObstacleLayer):
     marks the lowest voxel, as in costmap_2d); a sensor outside it cannot raytrace, so
     clears nothing. unknown_threshold, mark_threshold and publish_voxel_map have no
     meaning in 2D (this layer marks a cell from one voxel, as mark_threshold 0, and
-    publishes no voxel grid): accepted and logged once as ignored.
+    publishes no voxel grid): accepted and logged once as ignored. A point cloud's points
+    mark by the same height rules, but its rays clear whole columns, as the 2D obstacle
+    layer does (the real voxel layer clears only the voxels a 3D ray crosses, so a ray
+    passing above a low obstacle leaves it marked there, not here).
     """
 
     VOXEL_PARAMS = ("origin_z", "z_resolution", "z_voxels", "unknown_threshold", "mark_threshold",
@@ -681,6 +731,19 @@ class VoxelLayer(ObstacleLayer):
         """[m] the top of the voxel grid."""
         return self.origin_z + self.z_voxels * self.z_resolution
 
+
+    def marks_at(self, heights):
+        """A point above the voxel grid marks nothing (one below it marks the lowest voxel)."""
+        return super().marks_at(heights) & (np.asarray(heights) < self.top_z)
+
+    def clears_from(self, z, what):
+        """A sensor outside the voxel grid cannot raytrace in it (voxel_layer.cpp)."""
+        if self.origin_z <= z < self.top_z:
+            return True
+        self._warn(f"{what}: the sensor is at z = {z:.3f} m, outside the voxel grid's [origin_z, origin_z + "
+                   f"z_voxels * z_resolution) = [{self.origin_z}, {self.top_z:g}) m: its clouds clear nothing, "
+                   f"as in costmap_2d")
+        return False
 
     def height_allows(self, z, what):
         marks, clears = super().height_allows(z, what)
