@@ -179,3 +179,19 @@ def test_simulator_library_uses_only_the_base():
 
 def test_every_package_is_in_the_chain_or_the_simulator():
     assert set(PACKAGES) == set(CHAIN) | {SIM}
+
+
+@pytest.mark.parametrize("pkg", PACKAGES)
+def test_each_launch_file_name_is_unique_in_its_package(pkg):
+    """`roslaunch PKG NAME.launch` searches the whole package tree and refuses a name found
+    twice ("multiple files named [move_base.launch] in package"). Vendors' move_base.launch
+    files kept as test data inside my_summit_path_planning broke `roslaunch
+    my_summit_path_planning move_base.launch` so (a fresh-clone CI run, 2026-11-27); such
+    data lives in the workspace's data/ now."""
+    names = {}
+    for folder, dirs, files in os.walk(os.path.join(SRC, pkg)):
+        for f in files:
+            if f.endswith((".launch", ".test")):
+                names.setdefault(f, []).append(os.path.relpath(os.path.join(folder, f), SRC))
+    twice = {k: v for k, v in names.items() if len(v) > 1}
+    assert not twice, f"launch file names found more than once in {pkg}: {twice}"

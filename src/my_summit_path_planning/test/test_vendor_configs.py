@@ -1,6 +1,6 @@
 """The robot vendors' own move_base configurations build our move_base as they build the real one.
 
-test/data/vendor holds husky_navigation's, jackal_navigation's and turtlebot3_navigation's
+The workspace's data/vendor holds husky_navigation's, jackal_navigation's and turtlebot3_navigation's
 launch files and YAML, unchanged (README there). Each launch file is read by roslaunch's
 own XML loader, as `roslaunch` reads it (its <rosparam load ns=...>, <param>, <arg>), with
 `$(find PKG)` pointed at the copy; the move_base node's parameters then build our
@@ -22,7 +22,7 @@ from my_summit_path_planning.params import build_costmap, move_base_params
 from my_summit_path_planning.plugins import MoveBasePlugins
 from my_summit_path_planning.trajectory_planner import TrajectoryPlanner
 
-VENDOR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "vendor")
+VENDOR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "data", "vendor")  # the workspace's
 
 
 def launch_params(tmp_path, package, launch, node="move_base", argv=()):
