@@ -56,8 +56,7 @@ def test_names_move_base_does_not_read_are_left_unread_and_noted():
         "move_base: 'footprint_padding' is not a parameter this node reads; ignored",
         "move_base: 'recovery_behaviour_enabled' is not a parameter this node reads; ignored "
         "(did you mean 'recovery_behavior_enabled'?)")
-    assert p.global_costmap.notes[-1] == \
-        "move_base/global_costmap: 'meter_scoring' is not a parameter this node reads; ignored"
+    assert p.global_costmap.notes[-1] == "'meter_scoring' is not a parameter this node reads; ignored"
     assert p.ignored == ()
 
 

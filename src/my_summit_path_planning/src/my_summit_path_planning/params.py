@@ -125,12 +125,12 @@ def _coerce(cls_name, f, value, where):
     return value
 
 
-def from_dict(cls, params, where, aliases=None, notes=None, internal=()):
+def from_dict(cls, params, where, aliases=None, notes=None, internal=(), note_where=None):
     """Build dataclass cls from a parameter dict; ParamError on a value of the wrong type.
 
-    A name cls has no field for (nor an alias) is not read; its warning is appended to
-    `notes` when a list is given. `internal`: fields that are not parameters (never read
-    from the dict)."""
+    A name cls has no field for (nor an alias) is not read; its warning (prefixed with
+    note_where, default where) is appended to `notes` when a list is given. `internal`:
+    fields that are not parameters (never read from the dict)."""
     if params is None:
         params = {}
     if not isinstance(params, dict):
@@ -141,7 +141,8 @@ def from_dict(cls, params, where, aliases=None, notes=None, internal=()):
         name = (aliases or {}).get(key, key)
         if name not in fields:
             if notes is not None:
-                notes.append(unread_note(where, key, list(fields) + list(aliases or ())))
+                notes.append(unread_note(where if note_where is None else note_where, key,
+                                         list(fields) + list(aliases or ())))
             continue
         if name in kwargs and key != name:
             continue  # an old name never overrides the new one (warnRenamedParameter)
@@ -209,7 +210,8 @@ def costmap_config(params, where):
     # Layer namespaces of the common file are kept even when this costmap does not use them.
     layer_params = {k: v for k, v in params.items() if isinstance(v, dict)}
     rest = {k: v for k, v in params.items() if not isinstance(v, dict)}
-    cfg = from_dict(CostmapConfig, rest, where, notes=notes, internal=("layer_params", "notes"))
+    # its notes are logged with the costmap's name in front (LayeredCostmap.warn_once)
+    cfg = from_dict(CostmapConfig, rest, where, notes=notes, internal=("layer_params", "notes"), note_where="")
     cfg.layer_params = layer_params
     cfg.notes = notes
     _positive(where, resolution=cfg.resolution, width=cfg.width, height=cfg.height)

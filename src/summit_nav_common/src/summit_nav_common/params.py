@@ -17,10 +17,11 @@ def unread_names(params, known):
 
 
 def unread_note(where, name, known):
-    """The warning for one unread name: where it is, that it is ignored, the nearest known name."""
+    """The warning for one unread name: where it is (none when `where` is empty: the
+    logger says it), that it is ignored, the nearest known name."""
     near = difflib.get_close_matches(str(name), sorted(known), n=1)
     hint = f" (did you mean '{near[0]}'?)" if near else ""
-    return f"{where}: '{name}' is not a parameter this node reads; ignored{hint}"
+    return f"{where + ': ' if where else ''}'{name}' is not a parameter this node reads; ignored{hint}"
 
 
 def unread_notes(where, params, known):
