@@ -4,14 +4,15 @@
 move_base_cloud.test starts move_base alone with static tf (robot at (1, 2, yaw 0.5) in
 odom; camera_link 0.2 m ahead, 0.5 m up, pitched 0.4 rad down) and one obstacle layer
 with a PointCloud2 source (/test/cloud, height band 0.1-1.5 m) and a PointCloud one
-(/test/old_cloud, sensor_frame camera_link); the layer's max_obstacle_height is 1.2 m.
+(/test/old_cloud, published in camera_link, sensor_frame old_sensor 0.4 m above the
+robot: its rays start there); the layer's max_obstacle_height is 1.2 m.
 This node picks points in odom, writes them in the camera's frame (so the node's 3D
 transform is what is checked), publishes them and reads ~local_costmap/costmap:
 
   marked:     a point 1.5 m ahead at z 0.3 (PointCloud2); one 1 m to the left at z 0.5
               (PointCloud)
   not marked: one at z 1.3 (in the band, above the layer's max), one at z 0.05 (below
-              the band), a NaN point
+              the band); a NaN point is dropped (the cloud still marks)
   cleared:    the 1.5 m hit, once a later cloud sees 2.0 m along the same ray
 """
 import math
@@ -86,9 +87,9 @@ class CloudSources(unittest.TestCase):
 
     def test_clouds_mark_by_height_and_clear_along_rays(self):
         hit, left = ahead(1.5), ahead(0.0, 1.0)
-        high, low, nan = ahead(1.0, -1.0), ahead(2.0, 0.8), ahead(1.2, 0.5)
-        cloud = [(*hit, 0.3), (*high, 1.3), (*low, 0.05), (nan[0], nan[1], float("nan"))]
-        self.wait_costs(cloud, [(*left, 0.5)], {hit: 100, left: 100, high: 0, low: 0, nan: 0})
+        high, low = ahead(1.0, -1.0), ahead(2.0, 0.8)
+        cloud = [(*hit, 0.3), (*high, 1.3), (*low, 0.05), (float("nan"), 0.0, 0.3)]
+        self.wait_costs(cloud, [(*left, 0.5)], {hit: 100, left: 100, high: 0, low: 0})
         # The camera now sees 2.0 m along the ray through the first hit: that hit is cleared.
         cam_x, cam_y = ahead(0.2)
         beyond = (cam_x + (hit[0] - cam_x) * 1.8 / 1.3, cam_y + (hit[1] - cam_y) * 1.8 / 1.3)

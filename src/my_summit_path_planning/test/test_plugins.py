@@ -48,13 +48,13 @@ def test_names_move_base_does_not_read_are_left_unread_and_noted():
     reads its own), husky_navigation's planner.yaml the misspelt recovery_behaviour_enabled.
     Ours runs too, the costmaps' own values kept, and notes each name once with the
     nearest one it reads."""
-    p = move_base_params({"footprint_padding": 0.01, "recovery_behaviour_enabled": True,
+    p = move_base_params({"footprint_padding": 0.01, "recovery_behaviour_enabled": False,
                           "global_costmap": {"footprint_padding": 0.02, "meter_scoring": True}})
     assert p.global_costmap.footprint_padding == 0.02
-    assert p.move_base.recovery_behavior_enabled is True
+    assert p.move_base.recovery_behavior_enabled is True      # the misspelt name is not read
     assert p.notes == (
-        "move_base: 'footprint_padding' is not a parameter this node reads; ignored",
-        "move_base: 'recovery_behaviour_enabled' is not a parameter this node reads; ignored "
+        "'footprint_padding' is not a parameter this node reads; ignored",
+        "'recovery_behaviour_enabled' is not a parameter this node reads; ignored "
         "(did you mean 'recovery_behavior_enabled'?)")
     assert p.global_costmap.notes[-1] == "'meter_scoring' is not a parameter this node reads; ignored"
     assert p.ignored == ()
@@ -241,8 +241,8 @@ def test_planner_notes_name_unused_and_deprecated_parameters(footprint):
         "base_local_planner": "base_local_planner/TrajectoryPlannerROS",
         "GlobalPlanner": {"no_such_knob": 1},
         "TrajectoryPlannerROS": {"pdist_scale": 0.6, "no_such_knob": 2}}), footprint=footprint)
-    assert "~GlobalPlanner/no_such_knob is not a parameter of this planner; ignored" in pl.notes
-    assert "~TrajectoryPlannerROS/no_such_knob is not a parameter of this planner; ignored" in pl.notes
+    assert "~GlobalPlanner: 'no_such_knob' is not a parameter this node reads; ignored" in pl.notes
+    assert "~TrajectoryPlannerROS: 'no_such_knob' is not a parameter this node reads; ignored" in pl.notes
     assert any("pdist_scale" in n for n in pl.notes if "ignored" not in n)
 
 
@@ -260,22 +260,23 @@ def test_dwa_says_once_that_it_does_not_scale_the_footprint_with_speed(footprint
     assert not any("use_dwa" in n for n in pl.notes) and any("x1.2" in n for n in pl.notes)
 
 
-def test_dwa_reads_renamed_parameters_as_dwa_local_planner_does(footprint):
-    """DWAPlannerROS::initialize copies six renamed parameters to their new names when only
-    the old one is set (nav_core::warnRenamedParameter, with its warning) and reads nothing
-    else under an old name: base_local_planner's acc_lim_th and vtheta_samples do nothing
-    there (husky_navigation's DWAPlannerROS sets acc_lim_th). dynamic_reconfigure raises a
-    sample count below its minimum, 1 (turtlebot3_navigation sets vy_samples: 0)."""
+def test_dwa_reads_no_old_name_as_dwa_local_planner(footprint):
+    """DWAPlannerROS::initialize warns for six renamed parameters whenever the old name is
+    set ("will not load properly": nav_core::warnRenamedParameter copies nothing) and reads
+    only the new names; base_local_planner's acc_lim_th and vtheta_samples mean nothing there
+    (husky_navigation's DWAPlannerROS sets acc_lim_th). dynamic_reconfigure raises a sample
+    count below its minimum, 1 (turtlebot3_navigation sets vy_samples: 0)."""
     params = {"max_rot_vel": 2.0, "min_rot_vel": 0.3, "acc_limit_trans": 1.0, "max_trans_vel": 0.4,
               "max_vel_trans": 0.5, "acc_lim_th": 9.0, "vtheta_samples": 40, "vy_samples": 0}
     pl = MoveBasePlugins(move_base_params({"base_local_planner": DWA, "DWAPlannerROS": params}),
                          footprint=footprint)
     c = pl.local_planner.config
-    assert (c.max_vel_theta, c.min_vel_theta, c.acc_lim_trans) == (2.0, 0.3, 1.0)
-    assert c.max_vel_trans == 0.5                     # the new name wins; the old one is not read
+    assert (c.max_vel_theta, c.min_vel_theta, c.acc_lim_trans) == (1.0, 0.4, 0.0)     # the defaults
+    assert c.max_vel_trans == 0.5
     assert (c.acc_lim_theta, c.vth_samples, c.vy_samples) == (3.2, 20, 1)
     notes = "\n".join(pl.notes)
-    assert "Parameter max_rot_vel is deprecated (and will not load properly). Use max_vel_theta instead." in notes
-    assert "max_trans_vel is deprecated" not in notes
+    for old, new in (("max_rot_vel", "max_vel_theta"), ("max_trans_vel", "max_vel_trans")):
+        assert f"Parameter {old} is deprecated (and will not load properly). Use {new} instead." in notes
     assert "DWAPlannerROS: 'acc_lim_th' is not a parameter this node reads; ignored" in notes
+    assert "'max_rot_vel' is not a parameter" not in notes        # the real warning, not ours
     assert "DWAPlannerROS: 'vy_samples' 0 raised to 1" in notes

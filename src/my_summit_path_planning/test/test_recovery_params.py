@@ -234,14 +234,16 @@ def test_bad_params_are_named(tmp_path, fname, ns, key, value, match):
         getattr(load_move_base_params(str(tmp_path)), "dwa" if ns == "DWAPlannerROS" else "navfn")
 
 
-def test_old_dwa_names_accepted(tmp_path):
+def test_old_dwa_names_are_not_read(tmp_path):
+    """As the real DWAPlannerROS: a renamed parameter under its old name is warned about and
+    not read (the default stands), in the course's files too."""
     for f in (f for f in os.listdir(CONFIG) if f.endswith(".yaml")):  # the course's files, not navigation_stage/
         shutil.copy(os.path.join(CONFIG, f), tmp_path / f)
     doc = yaml.safe_load(open(tmp_path / "dwa_local_planner_params.yaml"))
     doc["DWAPlannerROS"]["max_rot_vel"] = 2.0
     del doc["DWAPlannerROS"]["max_vel_theta"]
     yaml.safe_dump(doc, open(tmp_path / "dwa_local_planner_params.yaml", "w"))
-    assert load_move_base_params(str(tmp_path)).dwa.max_vel_theta == 2.0
+    assert load_move_base_params(str(tmp_path)).dwa.max_vel_theta == 1.0
 
 
 def test_turn_around_in_the_recovery_list_and_its_bad_parameters(footprint):

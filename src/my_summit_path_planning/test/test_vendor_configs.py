@@ -7,7 +7,8 @@ own XML loader, as `roslaunch` reads it (its <rosparam load ns=...>, <param>, <a
 move_base's parameters, both costmaps and the plugins, as the node does at start. The
 real move_base starts with each of them; ours refused all three until names it does not
 read were left unread (husky: recovery_behaviour_enabled; jackal: meter_scoring in its
-costmaps; turtlebot3: DWAPlannerROS vy_samples 0).
+costmaps) and a sample count below 1 raised to 1 as dynamic_reconfigure does
+(turtlebot3: DWAPlannerROS vy_samples 0).
 """
 import os
 import re

@@ -56,6 +56,14 @@ def test_bad_clouds_are_named():
     with pytest.raises(CloudError, match="bytes of data, its header needs 72"):
         pointcloud2_xyz(msg)
     assert pointcloud2_xyz(cloud([])).shape == (0, 3)
+    msg = cloud([(0.0, 1.0, 2.0, 3.0, 1)] * 4)
+    msg.point_step = 12                             # z (offset 12) would lie past each point
+    with pytest.raises(CloudError, match="field 'y' ends at byte 12, beyond point_step 12|field 'z'"):
+        pointcloud2_xyz(msg)
+    msg = cloud([(0.0, 1.0, 2.0, 3.0, 1)] * 4)
+    msg.height, msg.width, msg.row_step = 2, 2, 20  # rows would overlap
+    with pytest.raises(CloudError, match="row_step 20 is shorter than a row of 2 points"):
+        pointcloud2_xyz(msg)
 
 
 def test_old_pointcloud():

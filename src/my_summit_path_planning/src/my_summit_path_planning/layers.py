@@ -31,8 +31,6 @@ VOXEL_TYPES = ("costmap_2d::VoxelLayer",)
 INFLATION_TYPES = ("costmap_2d::InflationLayer",)
 
 
-
-
 def _number(params, key, default, where, minimum=None):
     v = params.get(key, default)
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
@@ -394,7 +392,7 @@ class ObstacleLayer(Layer):
     """Obstacles seen by the sensors (costmap_2d::ObstacleLayer), in its own grid.
 
     Parameters (costmap_2d names): observation_sources (names; each a dict with
-    data_type, topic, sensor_frame, marking, clearing, obstacle_range, raytrace_range,
+    data_type (LaserScan, PointCloud2, or PointCloud: costmap_2d's default), topic, sensor_frame, marking, clearing, obstacle_range, raytrace_range,
     inf_is_valid, min_obstacle_height [m] (0), max_obstacle_height [m] (2), ... read by
     the node), obstacle_range [m] and raytrace_range [m] (defaults for sources),
     max_obstacle_height [m] (nothing higher marks), track_unknown_space (default: the
@@ -404,7 +402,8 @@ class ObstacleLayer(Layer):
     Heights, as costmap_2d's observation buffer and obstacle layer: a scan whose sensor
     height lies outside its source's [min_obstacle_height, max_obstacle_height] neither
     marks nor clears; one above the layer's max_obstacle_height does not mark. Either is
-    warned about once.
+    warned about once. A point cloud's points are kept or dropped by their own heights
+    (cloud_to_observation), and one above the layer's max_obstacle_height does not mark.
 
     Each update: all clearing observations first clear the cells along their rays out
     to raytrace_range; then all marking observations mark their end points lying
@@ -444,7 +443,7 @@ class ObstacleLayer(Layer):
             if not isinstance(sp, dict):
                 raise CostmapError(f"{where}: source '{s}' must be a dict of parameters")
             self.notes += unread_notes(f"{where} source '{s}'", sp, self.SOURCE_PARAMS)
-            dt = sp.get("data_type", "LaserScan")
+            dt = sp.get("data_type", "PointCloud")   # costmap_2d's default
             if dt not in ("LaserScan", "PointCloud", "PointCloud2"):
                 raise CostmapError(f"{where} source '{s}': data_type must be LaserScan, "
                                    f"PointCloud or PointCloud2, got {dt!r}")
@@ -488,12 +487,11 @@ class ObstacleLayer(Layer):
 
     def add_observation(self, obs):
         """Queue an Observation for the next update_bounds, after the height tests."""
+        what = f"obstacle layer '{self.name}' source '{obs.source}'"
         if obs.heights is not None:   # a point cloud: each point marks by its own height
-            what = f"obstacle layer '{self.name}' source '{obs.source}'"
             obs = dataclasses.replace(obs, mark=np.asarray(obs.mark, dtype=bool) & self.marks_at(obs.heights),
                                       clearing=obs.clearing and self.clears_from(obs.z, what))
         elif obs.z is not None:
-            what = f"obstacle layer '{self.name}' source '{obs.source}'"
             if not obs.min_obstacle_height <= obs.z <= obs.max_obstacle_height:
                 self._warn(f"{what}: the sensor is at z = {obs.z:.3f} m, outside the source's "
                            f"[min_obstacle_height, max_obstacle_height] = [{obs.min_obstacle_height}, "
@@ -685,7 +683,7 @@ class InflationLayer(Layer):
 
 
 class VoxelLayer(ObstacleLayer):
-    """costmap_2d::VoxelLayer for planar lasers: an obstacle layer with a vertical extent.
+    """costmap_2d::VoxelLayer in 2D: an obstacle layer with a vertical extent.
 
     Reference: costmap_2d ``voxel_layer.cpp`` and wiki.ros.org/costmap_2d/hydro/obstacles.
     A level 2D laser's points all lie at the sensor's height, so a column of voxels holds
@@ -731,28 +729,26 @@ class VoxelLayer(ObstacleLayer):
         """[m] the top of the voxel grid."""
         return self.origin_z + self.z_voxels * self.z_resolution
 
-
     def marks_at(self, heights):
         """A point above the voxel grid marks nothing (one below it marks the lowest voxel)."""
         return super().marks_at(heights) & (np.asarray(heights) < self.top_z)
 
-    def clears_from(self, z, what):
-        """A sensor outside the voxel grid cannot raytrace in it (voxel_layer.cpp)."""
+    def _sensor_in_grid(self, z, what, loses):
+        """Whether a sensor at height z [m] is inside the voxel grid (voxel_layer.cpp raytraces
+        only from inside it); warns once, saying what its readings lose, when not."""
         if self.origin_z <= z < self.top_z:
             return True
         self._warn(f"{what}: the sensor is at z = {z:.3f} m, outside the voxel grid's [origin_z, origin_z + "
-                   f"z_voxels * z_resolution) = [{self.origin_z}, {self.top_z:g}) m: its clouds clear nothing, "
-                   f"as in costmap_2d")
+                   f"z_voxels * z_resolution) = [{self.origin_z}, {self.top_z:g}) m: {loses}, as in costmap_2d")
         return False
+
+    def clears_from(self, z, what):
+        return self._sensor_in_grid(z, what, "its clouds clear nothing")
 
     def height_allows(self, z, what):
         marks, clears = super().height_allows(z, what)
-        if not self.origin_z <= z < self.top_z:
-            self._warn(f"{what}: the sensor is at z = {z:.3f} m, outside the voxel grid's "
-                       f"[origin_z, origin_z + z_voxels * z_resolution) = [{self.origin_z}, "
-                       f"{self.top_z:g}) m: its scans "
-                       f"{'clear nothing' if z < self.origin_z else 'mark and clear nothing'}, "
-                       f"as in costmap_2d")
+        loses = "its scans clear nothing" if z < self.origin_z else "its scans mark and clear nothing"
+        if not self._sensor_in_grid(z, what, loses):
             clears = False
             marks = marks and z < self.origin_z
         return marks, clears

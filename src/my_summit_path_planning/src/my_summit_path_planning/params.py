@@ -33,16 +33,17 @@ CONFIG_FILES = ("move_base_params.yaml", "costmap_common_params.yaml",
                 "navfn_global_planner_params.yaml", "dwa_local_planner_params.yaml",
                 "base_local_planner_params.yaml")
 
-# dwa_local_planner's renamed parameters, old -> new: the ones DWAPlannerROS::initialize
-# copies to the new name (nav_core::warnRenamedParameter). Other old names (acc_lim_th,
-# vtheta_samples: base_local_planner's) it does not read, nor do we.
-DWA_ALIASES = {"max_trans_vel": "max_vel_trans", "min_trans_vel": "min_vel_trans",
+# dwa_local_planner's renamed parameters, old -> new. DWAPlannerROS::initialize warns for
+# each old name present (nav_core::warnRenamedParameter: "will not load properly") and
+# reads only the new ones; so does ours. Other old names (base_local_planner's acc_lim_th,
+# vtheta_samples) it neither reads nor names: ours notes them as unread.
+DWA_RENAMED = {"max_trans_vel": "max_vel_trans", "min_trans_vel": "min_vel_trans",
                "max_rot_vel": "max_vel_theta", "min_rot_vel": "min_vel_theta",
                "acc_limit_trans": "acc_lim_trans", "rot_stopped_vel": "theta_stopped_vel"}
 
 
 class ParamError(ValueError):
-    """A parameter that is unknown, of the wrong type or out of range."""
+    """A parameter of the wrong type or out of range (or a malformed namespace)."""
 
 
 @dataclass
@@ -125,12 +126,12 @@ def _coerce(cls_name, f, value, where):
     return value
 
 
-def from_dict(cls, params, where, aliases=None, notes=None, internal=(), note_where=None):
+def from_dict(cls, params, where, notes=None, internal=(), note_where=None):
     """Build dataclass cls from a parameter dict; ParamError on a value of the wrong type.
 
-    A name cls has no field for (nor an alias) is not read; its warning (prefixed with
-    note_where, default where) is appended to `notes` when a list is given. `internal`:
-    fields that are not parameters (never read from the dict)."""
+    A name cls has no field for is not read; its warning (prefixed with note_where,
+    default where) is appended to `notes` when a list is given. `internal`: fields that
+    are not parameters (never read from the dict)."""
     if params is None:
         params = {}
     if not isinstance(params, dict):
@@ -138,15 +139,10 @@ def from_dict(cls, params, where, aliases=None, notes=None, internal=(), note_wh
     fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in internal}
     kwargs = {}
     for key, value in params.items():
-        name = (aliases or {}).get(key, key)
-        if name not in fields:
-            if notes is not None:
-                notes.append(unread_note(where if note_where is None else note_where, key,
-                                         list(fields) + list(aliases or ())))
-            continue
-        if name in kwargs and key != name:
-            continue  # an old name never overrides the new one (warnRenamedParameter)
-        kwargs[name] = _coerce(cls.__name__, fields[name], value, where)
+        if key in fields:
+            kwargs[key] = _coerce(cls.__name__, fields[key], value, where)
+        elif notes is not None:
+            notes.append(unread_note(where if note_where is None else note_where, key, fields))
     return cls(**kwargs)
 
 
@@ -157,14 +153,15 @@ def _positive(where, **values):
 
 
 def dwa_config(params, where="DWAPlannerROS", notes=None):
-    """DWAConfig from the DWAPlannerROS dict (renamed parameters read as the real node
-    reads them), checked. notes (a list): the real node's warnings for renamed names,
-    one per name it does not read, sample counts raised to 1."""
+    """DWAConfig from the DWAPlannerROS dict, checked. notes (a list): the real node's
+    warning for each renamed name (not read), one per other name it does not read,
+    sample counts raised to 1."""
     notes = [] if notes is None else notes
     if isinstance(params, dict):
         notes += [f"Parameter {old} is deprecated (and will not load properly). Use {new} instead."
-                  for old, new in DWA_ALIASES.items() if old in params and new not in params]
-    cfg = from_dict(DWAConfig, params, where, DWA_ALIASES, notes)
+                  for old, new in DWA_RENAMED.items() if old in params]
+        params = {k: v for k, v in params.items() if k not in DWA_RENAMED}
+    cfg = from_dict(DWAConfig, params, where, notes=notes)
     _positive(where, controller_frequency=cfg.controller_frequency, sim_time=cfg.sim_time,
               sim_granularity=cfg.sim_granularity, angular_sim_granularity=cfg.angular_sim_granularity,
               max_vel_theta=cfg.max_vel_theta, acc_lim_x=cfg.acc_lim_x, acc_lim_theta=cfg.acc_lim_theta)
@@ -277,8 +274,8 @@ def move_base_params(ns, where="move_base"):
         raise ParamError(f"{where}: expected a namespace of parameters, got {ns!r}")
     own = {k: v for k, v in ns.items() if not isinstance(v, dict)}
     subs = {k: v for k, v in ns.items() if isinstance(v, dict)}
-    notes = []
-    mb = from_dict(MoveBaseConfig, own, where, notes=notes)
+    notes = []   # logged by the node as "move_base: ..."
+    mb = from_dict(MoveBaseConfig, own, where, notes=notes, note_where="")
     if mb.recovery_behaviors is not None and not isinstance(mb.recovery_behaviors, list):
         raise ParamError(f"{where}: 'recovery_behaviors' must be a list of {{name, type}}, "
                          f"got {mb.recovery_behaviors!r}")

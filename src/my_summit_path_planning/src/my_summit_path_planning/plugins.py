@@ -20,6 +20,8 @@ from .dwa import DWAPlanner
 from .global_planner import GlobalPlanner
 from .nav_core import PluginContext, PluginError, Registry, namespace_of, read_limits
 from .navfn import NavFn
+from summit_nav_common.params import unread_note
+
 from .params import dwa_config, navfn_config
 from .trajectory_planner import TrajectoryPlanner
 
@@ -192,10 +194,11 @@ def planner_context(footprint, local_type, local_params, global_costmap=None, lo
 
 def plugin_notes(name, planner):
     """A planner's deprecation warnings, and one line per parameter of its namespace it does
-    not use (the planners record both when built from their parameters)."""
+    not read, with the nearest name it reads (the planners record both when built from
+    their parameters; NavfnROS and DWAPlannerROS put the second kind in their warnings)."""
     unused = sorted(set(getattr(planner, "ignored", ())) | set(getattr(planner, "unknown_params", ())))
-    return list(getattr(planner, "warnings", ())) + [f"~{name}/{k} is not a parameter of this planner; ignored"
-                                                     for k in unused]
+    known = getattr(planner, "KNOWN_PARAMS", ())
+    return list(getattr(planner, "warnings", ())) + [unread_note(f"~{name}", k, known) for k in unused]
 
 
 class MoveBasePlugins:

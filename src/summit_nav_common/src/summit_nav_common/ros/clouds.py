@@ -28,6 +28,13 @@ def pointcloud2_xyz(msg):
     for n in "xyz":
         if fields[n].datatype not in POINT_FIELD_TYPES:
             raise CloudError(f"PointCloud2 field '{n}' has unknown datatype {fields[n].datatype}")
+        end = fields[n].offset + np.dtype(POINT_FIELD_TYPES[fields[n].datatype]).itemsize
+        if end > msg.point_step:
+            raise CloudError(f"PointCloud2 in frame '{msg.header.frame_id}': field '{n}' ends at byte {end}, "
+                             f"beyond point_step {msg.point_step}")
+    if msg.height > 1 and msg.row_step < msg.width * msg.point_step:
+        raise CloudError(f"PointCloud2 in frame '{msg.header.frame_id}': row_step {msg.row_step} is shorter "
+                         f"than a row of {msg.width} points of {msg.point_step} bytes")
     dtype = np.dtype({"names": list("xyz"),
                       "formats": [order + POINT_FIELD_TYPES[fields[n].datatype] for n in "xyz"],
                       "offsets": [fields[n].offset for n in "xyz"],

@@ -15,7 +15,9 @@ import time
 import rospy
 import tf2_ros
 
-TF_ERRORS = (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException)
+# InvalidArgumentException: a message whose frame_id is empty or not a frame name
+TF_ERRORS = (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException,
+             tf2_ros.InvalidArgumentException)
 POLL = 0.002   # [s] between lookups while waiting
 
 
