@@ -67,6 +67,10 @@ class AmclConfig:
     beam_skip_distance: float = 0.5     # distance within which a beam end agrees with the map [m]
     beam_skip_threshold: float = 0.3    # fraction of agreeing particles below which a beam is skipped [-]
     beam_skip_error_threshold: float = 0.9  # skipped fraction above which no beam is skipped [-]
+    # Not amcl's: skip beams only while the particle set is converged (every particle within
+    # 0.5 m of the mean, amcl's pf convergence), so that global localization weighs every
+    # beam; false = amcl's behaviour (skip whenever do_beamskip) [-]
+    beam_skip_converged_only: bool = False
     # -- odometry model --------------------------------------------------------------
     odom_model_type: str = "diff"       # one of ODOM_MODELS
     odom_alpha1: float = 0.2            # rotation noise from rotation [-]

@@ -21,7 +21,8 @@ likelihood_field_prob: the same pz, combined as ``p = exp(sum(log pz))`` (a true
 product), with amcl's optional beam skipping (do_beamskip: beams whose end point agrees
 with the map, d < beam_skip_distance, for fewer than beam_skip_threshold of the
 particles are left out, unless more than beam_skip_error_threshold of the beams would
-be).
+be; ours: with beam_skip_converged_only, only while the particle set is converged, so a
+spread cloud during global localization weighs every beam).
 
 beam_range_finder_model: each beam's expected range is ray cast from every particle
 (``summit_nav_common.raycast.cast_rays``, exact to the grid; Walsh & Karaman 2017 with
@@ -233,7 +234,7 @@ class LikelihoodFieldModel:
             np.sum(val, axis=1, dtype=np.float64, out=out)
             out += 1.0
             return out
-        if self.cfg.do_beamskip:
+        if self.cfg.do_beamskip and (not self.cfg.beam_skip_converged_only or converged(particles)):
             keep = self._beamskip_mask(idx)
             np.sum(val[:, keep], axis=1, dtype=np.float64, out=out)
         else:
@@ -269,6 +270,13 @@ class LikelihoodFieldModel:
         if skipped >= keep.size * c.beam_skip_error_threshold:
             keep[:] = True  # the filter has not converged: use every beam
         return keep
+
+
+def converged(particles, dist=0.5):
+    """amcl's pf convergence (pf_update_converged): every particle within dist [m] of the
+    mean along x and y."""
+    p = np.asarray(particles)[:, :2]
+    return bool(np.all(np.abs(p - p.mean(axis=0)) <= dist))
 
 
 def likelihood_field_reference(grid, config, particles, ranges, bearings, laser_xy, range_max):

@@ -71,7 +71,7 @@ from scipy.sparse.csgraph import connected_components
 from summit_nav_common.geometry import compose, inverse
 
 from . import motion_model
-from .likelihood_field import FREE, make_laser_model, prepare_ranges, scan_limits, select_beams
+from .likelihood_field import FREE, converged, make_laser_model, prepare_ranges, scan_limits, select_beams
 
 # amcl's pf kd-tree histogram bin sizes (pf_kdtree.c: size = {0.50, 0.50, 10 deg}).
 BIN_XY = 0.5                      # [m]
@@ -560,9 +560,7 @@ class ParticleFilter:
     @property
     def converged(self):
         """amcl's pf convergence: every particle within 0.5 m of the mean along x and y."""
-        p = self.particles
-        mean = p[:, :2].mean(axis=0)
-        return bool(np.all(np.abs(p[:, :2] - mean) <= CONVERGED_DIST))
+        return converged(self.particles, CONVERGED_DIST)
 
     def map_to_odom(self):
         """Transform (x [m], y [m], yaw [rad]) map -> odom, or None before the first update.
