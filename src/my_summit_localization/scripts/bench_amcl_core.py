@@ -194,7 +194,10 @@ def feed(pf, sim, state):
 
 
 # -- 2. tracking ----------------------------------------------------------------------
-def bench_tracking(cfg, seed=0):
+def bench_tracking(cfg, seed=0, until=600.0, on_step=None):
+    """The tour from the known pose, to its end or `until` [s] of simulated time;
+    on_step(sim, state), when given, runs every simulator step before the filter's input
+    (a test changes the world there)."""
     world = World.from_yaml(BUILTIN)
     with open(TOUR) as f:
         tour = yaml.safe_load(f)
@@ -207,13 +210,15 @@ def bench_tracking(cfg, seed=0):
     i, n = 0, 0
     pos_err, yaw_err, times, particles = [], [], [], []
     t_filter = 0.0
-    while i < len(waypoints) and sim.time < 600.0:
+    while i < len(waypoints) and sim.time < until:
         if n % CONTROL_EVERY == 0:
             vx, wz, reached = tour_command(params, state.pose, waypoints[i])
             if reached:
                 i += 1
                 continue
             sim.command(ROBOT, vx, 0.0, wz)
+        if on_step is not None:
+            on_step(sim, state)
         if n % SCAN_EVERY == 0:
             t0 = time.perf_counter()
             feed(pf, sim, state)

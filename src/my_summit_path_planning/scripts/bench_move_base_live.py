@@ -55,6 +55,8 @@ sys.path.insert(0, HERE)
 
 import bench_planning_core as core  # noqa: E402  (the pairs, the planner kinds, the time limit)
 from roslaunch_session import check_node_args, child_result, exit_on_sigterm, print_result  # noqa: E402
+from summit_nav_common.files import write_atomic  # noqa: E402
+from summit_nav_common.geometry import quaternion_to_yaw  # noqa: E402
 
 NODE = os.path.normpath(os.path.join(HERE, "..", "nodes", "move_base"))
 NODE_NAME = "move_base"
@@ -201,7 +203,6 @@ class Recorder:
                      rospy.Subscriber(CMD_VEL, Twist, self._on_cmd, queue_size=10)]
 
     def _on_truth(self, m):
-        from summit_nav_common.geometry import quaternion_to_yaw
         pose = (m.pose.pose.position.x, m.pose.pose.position.y, quaternion_to_yaw(m.pose.pose.orientation))
         t = m.header.stamp.to_sec()
         with self.lock:
@@ -217,7 +218,6 @@ class Recorder:
 
     def write_trace(self, path, t0):
         """The trace as CSV (time from the goal), written whole or not at all."""
-        from summit_nav_common.files import write_atomic
         with self.lock:
             rows = list(self.trace)
         write_atomic(path, "t,x,y,yaw,cmd_vx,cmd_wz\n" + "".join(

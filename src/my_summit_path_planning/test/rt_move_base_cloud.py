@@ -19,7 +19,6 @@ import math
 import time
 import unittest
 
-import numpy as np
 import rospy
 import rostest
 import sensor_msgs.point_cloud2 as pc2
@@ -28,7 +27,7 @@ from geometry_msgs.msg import Point32
 from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import PointCloud
 from std_msgs.msg import Header
-from summit_nav_common.geometry import quaternion_matrix
+from summit_nav_common.geometry import transform_points_3d
 
 ROBOT = (1.0, 2.0, 0.5)
 WAIT = 30.0   # [s] wall
@@ -51,14 +50,13 @@ class CloudSources(unittest.TestCase):
         self.listener = tf2_ros.TransformListener(buf)
         t = buf.lookup_transform("camera_link", "odom", rospy.Time(0), rospy.Duration(WAIT))
         q, tr = t.transform.rotation, t.transform.translation
-        self.rot = quaternion_matrix(q.x, q.y, q.z, q.w)
-        self.trans = np.array([tr.x, tr.y, tr.z])
+        self.camera_from_odom = ((tr.x, tr.y, tr.z), (q.x, q.y, q.z, q.w))
 
     def _on_grid(self, msg):
         self.grid = msg
 
     def in_camera(self, pts_odom):
-        return [tuple(p) for p in np.asarray(pts_odom, dtype=float) @ self.rot.T + self.trans]
+        return [tuple(p) for p in transform_points_3d(pts_odom, *self.camera_from_odom)]
 
     def cost(self, x, y):
         g = self.grid

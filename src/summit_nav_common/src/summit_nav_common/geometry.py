@@ -67,6 +67,12 @@ def transform_points(points, pose):
         np.array([pose[0], pose[1]])
 
 
+def transform_points_3d(points, translation, quaternion):
+    """Points (N, 3) [m] given in a frame -> its parent, the frame's pose there being
+    translation (x, y, z) [m] and quaternion (x, y, z, w) (a tf TransformStamped's)."""
+    return np.asarray(points, dtype=np.float64) @ quaternion_matrix(*quaternion).T + np.asarray(translation, float)
+
+
 def yaw_to_quaternion_zw(yaw):
     """(z, w) of the unit quaternion of a rotation by yaw [rad] about z."""
     return math.sin(yaw / 2.0), math.cos(yaw / 2.0)
