@@ -1,5 +1,6 @@
 """Laser models: the vectorized likelihood field and beam model against the slow oracles,
 amcl's beam subsampling and range preparation, and the distance field."""
+import dataclasses
 import math
 import os
 
@@ -111,6 +112,31 @@ def test_likelihood_field_prob_many_beams_do_not_underflow(world):
     assert np.argmax(got) < 20               # a near-truth particle is the best
     q = model.per_beam_likelihood(float(got.mean()), model.last_beams)
     assert 0.0 < q < 1.0
+
+
+def test_beam_skipping_per_beam_likelihood_is_over_the_scored_beams(world):
+    """With beam skipping the per-beam likelihood is the geometric mean pz of the beams
+    scored, not of all beams. It used to divide by every beam: a skipped beam counted as
+    pz = 1, so the scan likelihood rose and fell with the number skipped. Augmented MCL
+    read such a fall as a worse scan and injected random particles (amcl_bad_input.test
+    after an initialpose 0.6 m off, 46 then 48 beams scored: cov_xx 0.0004 -> 0.37)."""
+    cfg = AmclConfig(laser_model_type="likelihood_field_prob", do_beamskip=True,
+                     beam_skip_converged_only=True, beam_skip_error_threshold=0.5)
+    model = LikelihoodFieldModel(world.grid, cfg, dtype=np.float64)
+    p, r, b = scan_and_particles(world, np.random.default_rng(5), n=3, beams=8)
+    p = p[:1].copy()
+    p[0] = (6.0, 7.0, 0.4)                  # one particle at the truth: converged
+    r = r.copy()
+    r[[1, 4]] = 0.4                         # two beams hit something the map lacks
+    got = model.weights(p, r, b, MOUNT, 30.0)
+    kept = ~np.isin(np.arange(r.size), [1, 4])
+    assert model.last_beams == int(kept.sum())
+    q = model.per_beam_likelihood(float(got[0]), model.last_beams)
+    # the same particle scored on the kept beams alone, with no skipping
+    alone = LikelihoodFieldModel(world.grid, dataclasses.replace(cfg, do_beamskip=False), dtype=np.float64)
+    got_alone = alone.weights(p, r[kept], b[kept], MOUNT, 30.0)
+    assert q == pytest.approx(alone.per_beam_likelihood(float(got_alone[0]), alone.last_beams), rel=1e-9)
+    assert q == pytest.approx(math.exp(alone.last_log_offset / kept.sum()), rel=1e-9)
 
 
 def test_rotated_map_origin_matches_reference(world):

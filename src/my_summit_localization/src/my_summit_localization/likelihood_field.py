@@ -237,6 +237,8 @@ class LikelihoodFieldModel:
         if self.cfg.do_beamskip and (not self.cfg.beam_skip_converged_only or converged(particles)):
             keep = self._beamskip_mask(idx)
             np.sum(val[:, keep], axis=1, dtype=np.float64, out=out)
+            # the per-beam likelihood is a mean over the beams scored, not the skipped ones
+            self.last_beams = int(keep.sum())
         else:
             np.sum(val, axis=1, dtype=np.float64, out=out)
         # exp(sum log pz) underflows for many beams: scale by exp(-max) (the filter
