@@ -149,7 +149,9 @@ class TourRecorder:
         laser = LaserParams()
         result = evaluation.evaluate(traj, times, truth[:, 0], truth[:, 1:], grid, world,
                                      laser.mount, laser.angles(), max_urange)
-        result.update(trajectory=traj, truth=evaluation.interpolate_poses(times, truth[:, 0], truth[:, 1:]),
+        inside = evaluation.within_span(times, truth[:, 0])
+        result.update(trajectory=traj[inside],
+                      truth=evaluation.interpolate_poses(times[inside], truth[:, 0], truth[:, 1:]),
                       processed_scans=len(traj))
         return result
 

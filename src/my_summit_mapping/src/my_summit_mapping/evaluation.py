@@ -25,6 +25,14 @@ HIT_NUDGE_CELLS = 0.5   # move a beam end this far into the wall to find the hit
 NO_RETURN_MARGIN = 1e-6  # a cast range within this of the limit counts as no return [m]
 
 
+def within_span(times, ref_times):
+    """bool (K,): which times lie within [min(ref_times), max(ref_times)], where
+    interpolate_poses interpolates rather than clamps."""
+    t = np.asarray(times, float)
+    ref = np.asarray(ref_times, float)
+    return (t >= ref.min()) & (t <= ref.max())
+
+
 def interpolate_poses(times, ref_times, ref_poses):
     """Poses (K, 3) at times (K,) [s] by linear interpolation of ref_poses (M, 3) at
     ascending ref_times (M,); yaw is unwrapped first. Times outside are clamped."""
@@ -96,14 +104,20 @@ def evaluate(trajectory, trajectory_times, truth_times, truth_poses, grid, world
 
     trajectory (K, 3) at trajectory_times (K,) [s]: the SLAM poses of the processed
     scans; truth_* : ground-truth base poses (M, 3) in the world at truth_times (M,).
+    Only the SLAM poses stamped within the truth's time span are scored (scored_poses);
+    the truth is not extrapolated. ValueError when none is.
     """
-    traj = np.asarray(trajectory, float)
-    truth = interpolate_poses(trajectory_times, truth_times, truth_poses)
+    inside = within_span(trajectory_times, truth_times)
+    if not inside.any():
+        raise ValueError(f"no SLAM pose lies within the ground truth's time span "
+                         f"[{float(np.min(truth_times)):.2f}, {float(np.max(truth_times)):.2f}] s")
+    traj = np.asarray(trajectory, float)[inside]
+    truth = interpolate_poses(np.asarray(trajectory_times, float)[inside], truth_times, truth_poses)
     rot, t = metrics.rigid_alignment_2d(traj, truth)
     ate = metrics.ate_rmse(traj, truth)
     occ = occupied_in_world(grid, rot, t, world)
     seen = seen_walls(world, laser_poses_of(truth, laser_mount), angles, max_urange)
-    return dict(ate_m=ate, precision=metrics.map_precision(occ, world.walls),
+    return dict(ate_m=ate, scored_poses=int(inside.sum()), precision=metrics.map_precision(occ, world.walls),
                 recall=metrics.map_recall(occ, seen), occupied_cells=int(occ.sum()),
                 seen_wall_cells=int(seen.sum()),
                 alignment=(math.atan2(rot[1, 0], rot[0, 0]), float(t[0]), float(t[1])),
