@@ -13,6 +13,7 @@ import time
 import rospkg
 import rospy
 from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import Pose2D
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from std_msgs.msg import UInt32
@@ -111,3 +112,24 @@ def map_to_world(m_in_w, x, y):
     """A map-frame point (x, y) [m] in the world frame."""
     p = lu.compose(m_in_w, (x, y, 0.0))
     return p[0], p[1]
+
+
+def ring_robot(add_box, pose, m_in_w, inner, wall):
+    """Four boxes (the simulator's add_box) around the robot at pose (map frame): room to
+    turn in place (inner [m] from its centre to each wall) but no gap to leave by.
+    Returns the boxes' names."""
+    wx, wy = map_to_world(m_in_w, pose[0], pose[1])
+    wyaw = pose[2] + m_in_w[2]
+    off = inner + wall / 2.0
+    length = 2.0 * (inner + wall)    # long enough to close the corners
+    names = []
+    for name, (dx, dy, along) in {"ring_front": (off, 0.0, False), "ring_back": (-off, 0.0, False),
+                                  "ring_left": (0.0, off, True), "ring_right": (0.0, -off, True)}.items():
+        cx = wx + dx * math.cos(wyaw) - dy * math.sin(wyaw)
+        cy = wy + dx * math.sin(wyaw) + dy * math.cos(wyaw)
+        sx, sy = (length, wall) if along else (wall, length)
+        resp = add_box(name, Pose2D(cx, cy, wyaw), sx, sy)
+        if not resp.success:
+            raise RuntimeError(f"add_box {name}: {resp.message}")
+        names.append(name)
+    return names

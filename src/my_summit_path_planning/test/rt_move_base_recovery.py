@@ -16,7 +16,6 @@ import unittest
 
 import rospy
 import rostest
-from geometry_msgs.msg import Pose2D
 from rosgraph_msgs.msg import Log
 
 from summit_xl_sim.srv import AddBox
@@ -62,19 +61,7 @@ class MoveBaseRecovery(unittest.TestCase):
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
         add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
         x, y, yaw = truth.wait()
-        wx, wy = mt.map_to_world(m_in_w, x, y)
-        wyaw = yaw + m_in_w[2]
-        # The ring, in the robot's own axes: front, back, left, right walls, long enough
-        # to close the corners.
-        off = inner + wall / 2.0
-        length = 2.0 * (inner + wall)
-        for name, (dx, dy, along) in {"ring_front": (off, 0.0, False), "ring_back": (-off, 0.0, False),
-                                      "ring_left": (0.0, off, True), "ring_right": (0.0, -off, True)}.items():
-            cx = wx + dx * math.cos(wyaw) - dy * math.sin(wyaw)
-            cy = wy + dx * math.sin(wyaw) + dy * math.cos(wyaw)
-            sx, sy = (length, wall) if along else (wall, length)
-            resp = add_box(name, Pose2D(cx, cy, wyaw), sx, sy)
-            self.assertTrue(resp.success, resp.message)
+        mt.ring_robot(add_box, (x, y, yaw), m_in_w, inner, wall)
         lu.sleep_sim(1.0)   # a few scans of the ring
         c.send_goal(mt.make_goal(*goal))
         state, text = mt.wait_result(c, max_sim)

@@ -117,9 +117,9 @@ def test_wrong_types_fail_at_once_naming_the_parameter(ns, match):
 @pytest.mark.parametrize("ns,match", [
     ({"NavfnROS": {"allow_unknown": "yes"}}, r"NavfnROS: 'allow_unknown' must be bool"),
     ({"DWAPlannerROS": {"vx_samples": "many"}}, r"DWAPlannerROS: 'vx_samples' must be int"),
-    ({"base_global_planner": "carrot_planner/CarrotPlanner"},
-     r"base_global_planner: unknown type 'carrot_planner/CarrotPlanner'; known types are: "
-     r"global_planner/GlobalPlanner, navfn/NavfnROS"),
+    ({"base_global_planner": "sbpl_lattice_planner/SBPLLatticePlanner"},
+     r"base_global_planner: unknown type 'sbpl_lattice_planner/SBPLLatticePlanner'; known types are: "
+     r"carrot_planner/CarrotPlanner, global_planner/GlobalPlanner, navfn/NavfnROS"),
     ({"base_local_planner": "teb_local_planner/TebLocalPlannerROS"},
      r"known types are: .*dwa_local_planner/DWAPlannerROS"),
 ])
@@ -145,9 +145,9 @@ def test_unused_planner_namespaces_are_left_alone(footprint):
 
 def test_a_bad_recovery_list_falls_back_to_the_defaults_with_its_reason(footprint):
     p = move_base_params({"base_local_planner": DWA,
-                          "recovery_behaviors": [{"name": "slow", "type": "move_slow_and_clear/MoveSlowAndClear"}]})
+                          "recovery_behaviors": [{"name": "pace", "type": "pace_recovery/PaceRecovery"}]})
     pl = MoveBasePlugins(p, footprint=footprint)
-    assert "unknown type 'move_slow_and_clear/MoveSlowAndClear'" in pl.recovery_error
+    assert "unknown type 'pace_recovery/PaceRecovery'" in pl.recovery_error
     assert "rotate_recovery/RotateRecovery" in pl.recovery_error
     assert [n for n, _ in pl.recoveries][0] == "conservative_reset"
     p = move_base_params({"base_local_planner": DWA, "clearing_rotation_allowed": False,

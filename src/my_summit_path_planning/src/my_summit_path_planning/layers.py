@@ -604,6 +604,15 @@ class ObstacleLayer(Layer):
         """Reset this layer's cells inside (or, with invert, outside) a cell window."""
         self.grid.clear_area(window, invert)
 
+    def set_window_cost(self, window, cost):
+        """Set this layer's cells in the cell window (x0, y0, x1, y1), x1 and y1 excluded, to
+        cost (costmap_2d's setConvexPolygonCost for an axis-aligned square)."""
+        x0, y0, x1, y1 = (int(v) for v in window)
+        g = self.grid
+        x0, x1, y0, y1 = max(0, x0), min(g.size_x, x1), max(0, y0), min(g.size_y, y1)
+        if x1 > x0 and y1 > y0:
+            g.data[y0:y1, x0:x1] = cost
+
 
 # ---------------------------------------------------------------------------------------
 def inflation_cost(distance, inscribed_radius, cost_scaling_factor):

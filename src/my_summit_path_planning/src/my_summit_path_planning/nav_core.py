@@ -31,8 +31,9 @@ class GlobalPlanner(Protocol):
     """nav_core::BaseGlobalPlanner."""
 
     def make_plan(self, costmap, start, goal, tolerance=None):
-        """Plan on costmap (a Costmap2D, read only) from start (x, y) [m] to goal (x, y) [m];
-        tolerance [m] overrides the planner's default_tolerance. Returns a PlanResult-like
+        """Plan on costmap (a Costmap2D, read only) from start to goal, each (x, y, yaw)
+        [m, m, rad] (nav_core's poses; a planner may use only x and y); tolerance [m]
+        overrides the planner's default_tolerance. Returns a PlanResult-like
         object: path (N, 2) [m] or None, ok, reason (why there is no plan)."""
 
 
@@ -87,7 +88,10 @@ class PluginContext:
     costmap's Footprint (controller and recoveries); controller_frequency [Hz];
     local_limits: the local planner's rotation and acceleration limits for the recoveries
     (acc_lim_th [rad/s^2], max_rotational_vel and min_in_place_rotational_vel [rad/s],
-    yaw_goal_tolerance [rad], acc_lim_x [m/s^2]).
+    yaw_goal_tolerance [rad], acc_lim_x [m/s^2]); planner_params: the node's access to
+    the planners' parameters (get(namespace, name) -> value or None, and
+    set(namespace, {name: value}) through the namespace's dynamic_reconfigure server), or
+    None.
     """
 
     global_costmap: object = None
@@ -95,6 +99,7 @@ class PluginContext:
     footprint: object = None
     controller_frequency: float = 20.0
     local_limits: dict = field(default_factory=dict)
+    planner_params: object = None
 
 
 @dataclass

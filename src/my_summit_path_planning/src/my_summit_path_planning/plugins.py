@@ -7,15 +7,18 @@ Registry are in nav_core.
 
 Registered here:
   base_global_planner  navfn/NavfnROS (navfn.NavFn), global_planner/GlobalPlanner
-                       (global_planner.GlobalPlanner)
+                       (global_planner.GlobalPlanner), carrot_planner/CarrotPlanner
+                       (carrot_planner.CarrotPlanner)
   base_local_planner   dwa_local_planner/DWAPlannerROS (dwa.DWAPlanner),
                        base_local_planner/TrajectoryPlannerROS (trajectory_planner.TrajectoryPlanner)
   recovery_behaviors   clear_costmap_recovery/ClearCostmapRecovery,
-                       rotate_recovery/RotateRecovery, and ours:
+                       rotate_recovery/RotateRecovery, move_slow_and_clear/MoveSlowAndClear,
+                       and ours:
                        my_summit_path_planning/BackUpRecovery, .../TurnAroundRecovery
 A registration is one line: ``REGISTRY.register(type, factory(params, ctx, where))``.
 """
 from . import recovery
+from .carrot_planner import CarrotPlanner
 from .dwa import DWAPlanner
 from .global_planner import GlobalPlanner
 from .nav_core import PluginContext, PluginError, Registry, namespace_of, read_limits
@@ -63,6 +66,8 @@ def _navfn(params, ctx, where):
 GLOBAL_PLANNERS.register("navfn/NavfnROS", _navfn)
 GLOBAL_PLANNERS.register("global_planner/GlobalPlanner",
                          lambda params, ctx, where: GlobalPlanner.from_params(params, where))
+GLOBAL_PLANNERS.register("carrot_planner/CarrotPlanner",
+                         lambda params, ctx, where: CarrotPlanner.from_params(params, ctx.footprint, where))
 
 def _dwa_planner(params, ctx, where):
     """DWAPlanner from its namespace; .warnings names what dwa_local_planner does that it
@@ -92,7 +97,8 @@ def _param(params, name, kind, default, where):
     value = params.pop(name, default)
     ok = isinstance(value, kind) and not (kind is not bool and isinstance(value, bool))
     if not ok:
-        expected = {float: "float", bool: "bool"}.get(kind, getattr(kind, "__name__", str(kind)))
+        expected = {float: "float", bool: "bool", (int, float): "a number"}.get(
+            kind, getattr(kind, "__name__", str(kind)))
         raise PluginError(f"{where}: '{name}' must be {expected}, got {value!r}")
     return value
 
@@ -113,7 +119,27 @@ def _rotate_kwargs(ctx):
                                        "yaw_goal_tolerance") if k in lim})
 
 
+SLOW_PARAMS = (("clearing_distance", (int, float), 0.5), ("limited_trans_speed", (int, float), 0.25),
+               ("limited_rot_speed", (int, float), 0.45), ("limited_distance", (int, float), 0.3),
+               ("max_trans_param_name", str, "max_trans_vel"), ("max_rot_param_name", str, "max_rot_vel"),
+               ("planner_namespace", str, "DWAPlannerROS"))
+
+
+def _move_slow_and_clear(params, ctx, where):
+    """move_slow_and_clear from ~<name> (its names and defaults); .warnings: the names it
+    does not read and the costmaps where it would clear nothing."""
+    values = {name: _param(params, name, kind, default, where) for name, kind, default in SLOW_PARAMS}
+    for name in ("clearing_distance", "limited_trans_speed", "limited_rot_speed", "limited_distance"):
+        if not values[name] >= 0.0:
+            raise PluginError(f"{where}: '{name}' must be >= 0, got {values[name]!r}")
+    beh = recovery.MoveSlowAndClear(ctx.global_costmap, ctx.local_costmap, ctx.planner_params, **values)
+    known = [n for n, _, _ in SLOW_PARAMS]
+    beh.notes = [unread_note(f"~{where}", k, known) for k in sorted(params)] + beh.warnings()
+    return beh
+
+
 RECOVERY_BEHAVIORS.register(recovery.CLEAR_TYPE, _clear_costmap)
+RECOVERY_BEHAVIORS.register(recovery.SLOW_TYPE, _move_slow_and_clear)
 RECOVERY_BEHAVIORS.register(recovery.ROTATE_TYPE, lambda params, ctx, where: recovery.RotateRecovery(
     ctx.footprint, **{**_rotate_kwargs(ctx), **params}))
 RECOVERY_BEHAVIORS.register(recovery.BACKUP_TYPE, lambda params, ctx, where: recovery.BackUpRecovery(
@@ -183,13 +209,14 @@ def default_recovery_sequence(ctx, conservative_reset_dist=3.0, clearing_rotatio
 
 
 def planner_context(footprint, local_type, local_params, global_costmap=None, local_costmap=None,
-                    controller_frequency=20.0):
+                    controller_frequency=20.0, planner_params=None):
     """The PluginContext move_base builds its plugins with (the local planner's limits
     read from its namespace)."""
     plugin = LOCAL_PLANNERS.resolve(local_type)
     limits = plugin.limits(local_params or {}) if plugin.limits is not None else {}
     return PluginContext(global_costmap=global_costmap, local_costmap=local_costmap, footprint=footprint,
-                         controller_frequency=controller_frequency, local_limits=limits)
+                         controller_frequency=controller_frequency, local_limits=limits,
+                         planner_params=planner_params)
 
 
 def plugin_notes(name, planner):
@@ -213,7 +240,8 @@ class MoveBasePlugins:
     move_base. warn(text): where deprecation warnings go.
     """
 
-    def __init__(self, p, global_costmap=None, local_costmap=None, footprint=None, warn=None):
+    def __init__(self, p, global_costmap=None, local_costmap=None, footprint=None, warn=None,
+                 planner_params=None):
         mb = p.move_base
         self.global_type = GLOBAL_PLANNERS.resolve(mb.base_global_planner, warn).type
         self.local_type = LOCAL_PLANNERS.resolve(mb.base_local_planner, warn).type
@@ -224,7 +252,7 @@ class MoveBasePlugins:
         if footprint is None and local_costmap is not None:
             footprint = local_costmap.layered.footprint
         self.ctx = planner_context(footprint, self.local_type, self.local_params, global_costmap, local_costmap,
-                                   mb.controller_frequency)
+                                   mb.controller_frequency, planner_params)
         self.global_planner = self.make_global_planner()
         self.local_planner = self.make_local_planner()
         # What the planners say about their parameters, for the node to log once.
@@ -240,6 +268,11 @@ class MoveBasePlugins:
         if self.recoveries is None:
             self.recoveries = default_recovery_sequence(self.ctx, mb.conservative_reset_dist,
                                                         mb.clearing_rotation_allowed, p.namespaces)
+        seen = set()
+        for name, beh in self.recoveries:
+            if id(beh) not in seen:
+                seen.add(id(beh))
+                self.notes += list(getattr(beh, "notes", ()))
 
     def make_global_planner(self):
         return GLOBAL_PLANNERS.create(self.global_type, self.global_params, self.ctx, self.global_name)

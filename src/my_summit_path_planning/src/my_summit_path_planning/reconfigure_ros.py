@@ -26,8 +26,12 @@ files' or the planner's defaults).
 """
 import dataclasses
 import importlib
+import queue
+import threading
 
 import rospy
+from dynamic_reconfigure.msg import Config, DoubleParameter
+from dynamic_reconfigure.srv import Reconfigure
 
 from my_summit_path_planning.global_planner import GlobalPlanner
 from my_summit_path_planning.layers import InflationLayer
@@ -211,3 +215,45 @@ def start_servers(node):
                 servers.append(StrictServer(InflationPluginConfig, InflationReconfigure(cm, layer),
                                             namespace=f"~{cm.name}/{layer.name}"))
     return servers
+
+
+SERVICE_WAIT = 2.0   # [s] how long a planner's set_parameters service is waited for
+
+
+class PlannerParams:
+    """The planners' parameters as move_slow_and_clear reaches them (nav_core.PluginContext
+    .planner_params): get() reads ~<namespace>/<name> from the parameter server; set()
+    sends the values to ~<namespace>/set_parameters, the namespace's dynamic_reconfigure
+    service, as the real recovery does. The calls are made in order by a worker thread:
+    the control loop that runs the recovery holds the lock the planners' reconfigure
+    callbacks take, so it must not wait for them."""
+
+    def __init__(self):
+        self.requests = queue.Queue()
+        threading.Thread(target=self._run, daemon=True, name="planner_params").start()
+
+    def get(self, namespace, name):
+        try:
+            value = rospy.get_param(f"~{namespace}/{name}")
+        except KeyError:
+            return None
+        return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+
+    def set(self, namespace, values):
+        self.requests.put((namespace, dict(values)))
+
+    def _run(self):
+        while not rospy.is_shutdown():
+            try:
+                namespace, values = self.requests.get(timeout=0.5)
+            except queue.Empty:
+                continue
+            service = rospy.resolve_name(f"~{namespace}/set_parameters")
+            text = ", ".join(f"{k} = {v:g}" for k, v in values.items())
+            try:
+                rospy.wait_for_service(service, SERVICE_WAIT)
+                rospy.ServiceProxy(service, Reconfigure)(
+                    Config(doubles=[DoubleParameter(name=k, value=float(v)) for k, v in values.items()]))
+                rospy.loginfo(f"move_base: recovery setting {text} ({service})")
+            except (rospy.ROSException, rospy.ServiceException) as e:
+                rospy.logerr(f"move_base: could not set {text} through {service}: {e}")

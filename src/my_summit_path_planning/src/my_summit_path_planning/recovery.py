@@ -1,9 +1,11 @@
-"""move_base's recovery behaviours: clear the costmaps, rotate in place, back up.
+"""move_base's recovery behaviours: clear the costmaps, rotate in place, move slowly, back up.
 
 Reference: ROS 1 navigation ``clear_costmap_recovery`` (reset_distance, layer_names,
-clearing the layer *outside* a reset_distance square centred on the robot) and
+clearing the layer *outside* a reset_distance square centred on the robot),
 ``rotate_recovery`` (a full turn in place at a speed bounded by the acceleration needed
-to stop, aborted when the footprint would hit something). move_base's default sequence
+to stop, aborted when the footprint would hit something) and ``move_slow_and_clear``
+(free the cells *inside* a square around the robot, then cap the local planner's speeds
+through its dynamic_reconfigure server until the robot has moved a short way). move_base's default sequence
 and its ``recovery_behaviors`` list are loaded by type string in plugins.py. Our
 additions to the types are back_up (``my_summit_path_planning/BackUpRecovery``, after Navigation2's BackUp
 behaviour): drive straight back a short way, checking the footprint behind; and
@@ -101,6 +103,131 @@ class ClearCostmapRecovery:
                                                      self.layer_names, self.force_clear_all)
         reason = f"clear costmap: no robot pose in {', '.join(missed)}: not cleared" if missed else ""
         return RecoveryStep(done=True, reason=reason)
+
+
+FREE_SPACE = 0
+SLOW_LAYER_MARK = "obstacles"   # move_slow_and_clear clears the layers whose name contains it
+
+
+def slow_clearing_layers(layered):
+    """The layers move_slow_and_clear clears in a LayeredCostmap: those whose name contains
+    "obstacles" (its rule; costmap_2d's own names, obstacle_layer among them, do not)."""
+    return [l for l in layered.layers if SLOW_LAYER_MARK in l.name and hasattr(l, "set_window_cost")]
+
+
+class MoveSlowAndClear:
+    """move_slow_and_clear: free the cells around the robot, then creep until it has moved.
+
+    In its one step: in the global and the local costmap, every layer whose name contains
+    "obstacles" gets FREE_SPACE in the square of half-side clearing_distance [m] centred on
+    the robot (nothing in a costmap where a corner of the square is off it); then the
+    local planner's ``max_trans_param_name`` and ``max_rot_param_name`` are set to
+    limited_trans_speed [m/s] and limited_rot_speed [rad/s] through its
+    dynamic_reconfigure server (~planner_namespace/set_parameters), the values before
+    the limit kept from the parameter server. tick(), called periodically by the node
+    (the real one's 10 Hz timer), puts those values back once the robot is
+    limited_distance [m] from where the limit began (global frame). A second run while
+    limited keeps the first run's values to restore.
+
+    The defaults are the real one's, max_trans_vel and max_rot_vel: DWAPlannerROS's old
+    names, which its dynamic_reconfigure server no longer has (max_vel_trans and
+    max_vel_theta now; TrajectoryPlannerROS: max_vel_x and max_vel_theta), so with them
+    the speeds are not limited and the missing names are logged, as in the real one.
+
+    planner_params: the node's access to the planners' parameters, get(namespace, name)
+    -> value or None and set(namespace, {name: value}); None: speeds are not limited.
+    """
+
+    def __init__(self, global_costmap, local_costmap, planner_params=None, clearing_distance=0.5,
+                 limited_trans_speed=0.25, limited_rot_speed=0.45, limited_distance=0.3,
+                 max_trans_param_name="max_trans_vel", max_rot_param_name="max_rot_vel",
+                 planner_namespace="DWAPlannerROS"):
+        self.global_costmap, self.local_costmap = global_costmap, local_costmap
+        self.planner_params = planner_params
+        self.clearing_distance = float(clearing_distance)
+        self.limits = {max_trans_param_name: float(limited_trans_speed), max_rot_param_name: float(limited_rot_speed)}
+        self.limited_distance = float(limited_distance)
+        self.namespace = planner_namespace
+        self.limit_set = False
+        self.old = {}               # the planner's values to restore, by name
+        self.limit_pose = None      # (x, y) in the global frame where the limit began
+        self.cleared = []
+
+    def warnings(self):
+        """Why this behaviour would clear nothing in a costmap (said once at start)."""
+        out = []
+        for c in (self.global_costmap, self.local_costmap):
+            if c is not None and not slow_clearing_layers(c.layered):
+                names = ", ".join(l.name for l in c.layered.layers)
+                out.append(f"move_slow_and_clear clears only layers whose name contains "
+                           f"'{SLOW_LAYER_MARK}', and {getattr(c, 'name', 'a costmap')} has none "
+                           f"({names}): it will clear nothing there")
+        return out
+
+    def start(self, pose, trail=()):
+        """Nothing to prepare: the behaviour is one step."""
+
+    def step(self, pose, velocity=None, costmap=None):
+        """Clear around the robot and set the speed limits; done at once."""
+        notes, self.cleared = [], []
+        for c in (self.global_costmap, self.local_costmap):
+            if c is None:
+                continue
+            robot = c.get_robot_pose()
+            if robot is None:
+                notes.append(f"no robot pose in {getattr(c, 'name', 'a costmap')}: not cleared")
+                continue
+            with c.lock:
+                self.cleared += self._clear(c.layered, robot)
+        if self.planner_params is None:
+            notes.append("no access to the planners' parameters: speeds not limited")
+            return RecoveryStep(done=True, reason="; ".join(notes))
+        if not self.limit_set:
+            self.old = {}
+            for name in self.limits:
+                value = self.planner_params.get(self.namespace, name)
+                if value is None:
+                    notes.append(f"The planner ~{self.namespace}, does not have the parameter {name}")
+                else:
+                    self.old[name] = value
+        g = self.global_costmap.get_robot_pose() if self.global_costmap is not None else None
+        self.limit_pose = None if g is None else (g[0], g[1])
+        self.planner_params.set(self.namespace, dict(self.limits))
+        self.limit_set = True
+        notes.append("Recovery setting " + ", ".join(f"{k} {v:g}" for k, v in self.limits.items())
+                     + f" until the robot has moved {self.limited_distance:g} m")
+        return RecoveryStep(done=True, reason="; ".join(notes))
+
+    def _clear(self, layered, robot):
+        m, d = layered.master, self.clearing_distance
+        lo = m.world_to_map(robot[0] - d, robot[1] - d)
+        hi = m.world_to_map(robot[0] + d, robot[1] + d)
+        if lo is None or hi is None:
+            return []
+        out = []
+        for layer in slow_clearing_layers(layered):
+            layer.set_window_cost((lo[0], lo[1], hi[0] + 1, hi[1] + 1), FREE_SPACE)
+            out.append(layer.name)
+        layered.force_full_update = True
+        return out
+
+    def tick(self):
+        """Lift the limit once the robot is limited_distance from where it began; returns
+        what to log ('' when nothing happened)."""
+        if not self.limit_set or self.global_costmap is None:
+            return ""
+        g = self.global_costmap.get_robot_pose()
+        if g is None:
+            return ""
+        if self.limit_pose is None:
+            self.limit_pose = (g[0], g[1])
+            return ""
+        if math.hypot(g[0] - self.limit_pose[0], g[1] - self.limit_pose[1]) < self.limited_distance:
+            return ""
+        if self.old:
+            self.planner_params.set(self.namespace, dict(self.old))
+        self.limit_set = False
+        return "Moved far enough, removing speed limit."
 
 
 def footprint_free(footprint, costmap, pose, x, y, th, limit=None):
@@ -505,4 +632,5 @@ CLEAR_TYPE = "clear_costmap_recovery/ClearCostmapRecovery"
 ROTATE_TYPE = "rotate_recovery/RotateRecovery"
 BACKUP_TYPE = "my_summit_path_planning/BackUpRecovery"
 TURN_AROUND_TYPE = "my_summit_path_planning/TurnAroundRecovery"
-RECOVERY_TYPES = (CLEAR_TYPE, ROTATE_TYPE, BACKUP_TYPE, TURN_AROUND_TYPE)
+SLOW_TYPE = "move_slow_and_clear/MoveSlowAndClear"
+RECOVERY_TYPES = (CLEAR_TYPE, ROTATE_TYPE, BACKUP_TYPE, TURN_AROUND_TYPE, SLOW_TYPE)
