@@ -293,7 +293,8 @@ def rows_amcl(res):
                        t["position_rmse_m"] <= AMCL_TRACK_POS and t["yaw_rmse_deg"] <= AMCL_TRACK_YAW))
     for key, what, count, share in (("global", "global localization from seeded poses, converged within 15 m",
                                      "converged", AMCL_GLOBAL_SHARE),
-                                    ("kidnap", "kidnapping, recovered within 15 m", "recovered", AMCL_KIDNAP_SHARE)):
+                                    ("kidnap", "kidnapping, random particles while tracking (recovery_global_only false), "
+                                     "recovered within 15 m", "recovered", AMCL_KIDNAP_SHARE)):
         if key in res:
             g = res[key]
             need = math.ceil(share * g["runs"])

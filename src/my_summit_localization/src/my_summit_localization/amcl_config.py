@@ -40,6 +40,10 @@ class AmclConfig:
     # (recovery_alpha_fast > 0), w_fast below it injects random particles even when w_slow
     # is lower (sensor resetting; 0 = off, amcl's behaviour) [-]
     recovery_likelihood_threshold: float = 0.0
+    # Not amcl's: inject random particles only while global localization is under way, from
+    # global_localization() until the set has converged with w_fast at or above
+    # recovery_likelihood_threshold; false = amcl's behaviour (whenever recovery is on) [-]
+    recovery_global_only: bool = False
     initial_pose_x: float = 0.0         # initial pose mean x [m]
     initial_pose_y: float = 0.0         # initial pose mean y [m]
     initial_pose_a: float = 0.0         # initial pose mean yaw [rad]

@@ -16,6 +16,11 @@ Algorithms:
   from the spread cloud's low likelihood, against which a wrong but plausible place looks
   fine. A pose given by /initialpose is trusted as amcl trusts it (its averages restart,
   so nothing is injected until they part).
+- recovery_global_only (ours; amcl injects whenever recovery is on): random particles
+  only from global_localization() until the set has converged with w_fast at or above
+  that threshold. Augmented MCL reads any drop of the scan likelihood as being lost, and
+  an obstacle the map lacks is such a drop; a random particle in a look-alike place then
+  explains it better than the true pose.
 - KLD-sampling (Fox 2003, "Adapting the Sample Size in Particle Filters Through
   KLD-Sampling", IJRR 22(12)): the new set grows until its size n exceeds
   ``(k-1)/(2 kld_err) * (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) * kld_z)^3`` (clamped to
@@ -426,6 +431,9 @@ class ParticleFilter:
         self._resample_count += 1
         if self._resample_count % self.cfg.resample_interval == 0:
             self.resampled = self.resample()
+        if self._global_init and self.cfg.recovery_global_only and self.resampled and \
+                self.w_fast >= self.cfg.recovery_likelihood_threshold and self.converged:
+            self._global_init = False   # localized: tracking from here, no more random particles
         self._map_to_odom = None      # computed from this update's set when first asked
         self._have_update = True
         return True
@@ -489,7 +497,7 @@ class ParticleFilter:
         w_ref = max(w_slow, recovery_likelihood_threshold) while recovery is on
         (recovery_alpha_fast > 0) after global_localization(), else w_slow; 0 before the
         first scan."""
-        if self.w_slow <= 0.0:
+        if self.w_slow <= 0.0 or (self.cfg.recovery_global_only and not self._global_init):
             return 0.0
         w_ref = self.w_slow
         if self.cfg.recovery_alpha_fast > 0.0 and self._global_init:
