@@ -1,0 +1,74 @@
+#!/usr/bin/python3
+"""rostest: a crate the map lacks, in view before amcl's cloud has converged.
+
+The robot stands at the start with amcl's initial spread (it updates only once it
+moves); a 0.2 x 2 m crate (the simulator's add_box) is put across its heading
+crate_ahead m away, then a goal goal_ahead m ahead, beyond the crate. amcl's estimate
+must stay within AMCL_TOL of the truth at every amcl_pose, the goal must succeed within
+the goal tolerance by ground truth, with zero collisions.
+"""
+import math
+import sys
+import threading
+import unittest
+
+import rospy
+import rostest
+from geometry_msgs.msg import Pose2D, PoseWithCovarianceStamped
+
+from summit_xl_sim.srv import AddBox
+
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+import mbtest_util as mt  # noqa: E402
+from mbtest_util import lu  # noqa: E402
+
+AMCL_TOL = 0.3      # [m] (holds 0.1; a jump to a look-alike place is metres)
+GOAL_TOL = 0.25     # [m] by ground truth: xy_goal_tolerance 0.1 plus amcl's error
+
+
+class MoveBaseCrateStart(unittest.TestCase):
+    def test_crate_in_view_at_the_start(self):
+        rospy.init_node("move_base_crate_start_test")
+        ahead = rospy.get_param("~crate_ahead")
+        goal_ahead = rospy.get_param("~goal_ahead")
+        max_sim = rospy.get_param("~max_sim_time")
+        m_in_w = lu.map_in_world()
+        truth = mt.Truth(m_in_w)
+        lock, worst = threading.Lock(), [0.0, None]
+
+        def on_amcl(msg):
+            p, t = msg.pose.pose.position, truth.pose
+            if t is None:
+                return
+            e = math.hypot(p.x - t[0], p.y - t[1])
+            with lock:
+                if e > worst[0]:
+                    worst[:] = [e, (round(p.x, 2), round(p.y, 2), msg.header.stamp.to_sec())]
+
+        lu.wait_clock()
+        c = mt.client()
+        rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
+        add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
+        x, y, yaw = truth.wait()
+        rospy.Subscriber("/amcl_pose", PoseWithCovarianceStamped, on_amcl, queue_size=10)
+        wx, wy = mt.map_to_world(m_in_w, x + ahead * math.cos(yaw), y + ahead * math.sin(yaw))
+        resp = add_box("crate", Pose2D(wx, wy, yaw + m_in_w[2]), 0.2, 2.0)
+        self.assertTrue(resp.success, resp.message)
+        lu.sleep_sim(1.0)
+        goal = (x + goal_ahead * math.cos(yaw), y + goal_ahead * math.sin(yaw), yaw)
+        c.send_goal(mt.make_goal(*goal))
+        state, text = mt.wait_result(c, max_sim)
+        end = truth.pose
+        err = math.hypot(end[0] - goal[0], end[1] - goal[1])
+        with lock:
+            amcl_worst, where = worst
+        rospy.loginfo(f"MOVE_BASE_CRATE_START state={state} goal error {err:.3f} m, amcl worst {amcl_worst:.3f} m "
+                      f"(at {where}), collisions {truth.collisions}")
+        self.assertLess(amcl_worst, AMCL_TOL, f"amcl left the robot: {where}")
+        self.assertEqual(state, "SUCCEEDED", text)
+        self.assertLess(err, GOAL_TOL)
+        self.assertEqual(truth.collisions, 0)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("my_summit_path_planning", "move_base_crate_start", MoveBaseCrateStart, sys.argv)
