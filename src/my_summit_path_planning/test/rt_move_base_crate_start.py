@@ -12,6 +12,7 @@ import sys
 import threading
 import unittest
 
+import numpy as np
 import rospy
 import rostest
 from geometry_msgs.msg import Pose2D, PoseWithCovarianceStamped
@@ -26,6 +27,21 @@ AMCL_TOL = 0.3      # [m] (holds 0.1; a jump to a look-alike place is metres)
 GOAL_TOL = 0.25     # [m] by ground truth: xy_goal_tolerance 0.1 plus amcl's error
 
 
+def amcl_error(estimates, track):
+    """(largest distance, its (x, y, t)) of amcl's (t, x, y) estimates from the truth track
+    (t, x, y) at each estimate's stamp, interpolated: under load amcl_pose arrives late,
+    so the latest truth would be the wrong one (one CI run: 0.35 m while driving)."""
+    t, x, y = (np.array(v) for v in zip(*track))
+    worst, where = 0.0, None
+    for ts, ex, ey in estimates:
+        if ts < t[0]:
+            continue
+        e = math.hypot(ex - np.interp(ts, t, x), ey - np.interp(ts, t, y))
+        if e > worst:
+            worst, where = e, (round(ex, 2), round(ey, 2), round(ts, 2))
+    return worst, where
+
+
 class MoveBaseCrateStart(unittest.TestCase):
     def test_crate_in_view_at_the_start(self):
         rospy.init_node("move_base_crate_start_test")
@@ -34,16 +50,12 @@ class MoveBaseCrateStart(unittest.TestCase):
         max_sim = rospy.get_param("~max_sim_time")
         m_in_w = lu.map_in_world()
         truth = mt.Truth(m_in_w)
-        lock, worst = threading.Lock(), [0.0, None]
+        lock, estimates = threading.Lock(), []
 
         def on_amcl(msg):
-            p, t = msg.pose.pose.position, truth.pose
-            if t is None:
-                return
-            e = math.hypot(p.x - t[0], p.y - t[1])
+            p = msg.pose.pose.position
             with lock:
-                if e > worst[0]:
-                    worst[:] = [e, (round(p.x, 2), round(p.y, 2), msg.header.stamp.to_sec())]
+                estimates.append((msg.header.stamp.to_sec(), p.x, p.y))
 
         lu.wait_clock()
         c = mt.client()
@@ -58,10 +70,11 @@ class MoveBaseCrateStart(unittest.TestCase):
         goal = (x + goal_ahead * math.cos(yaw), y + goal_ahead * math.sin(yaw), yaw)
         c.send_goal(mt.make_goal(*goal))
         state, text = mt.wait_result(c, max_sim)
+        lu.sleep_sim(0.5)
         end = truth.pose
         err = math.hypot(end[0] - goal[0], end[1] - goal[1])
-        with lock:
-            amcl_worst, where = worst
+        with lock, truth.lock:
+            amcl_worst, where = amcl_error(estimates, truth.track)
         rospy.loginfo(f"MOVE_BASE_CRATE_START state={state} goal error {err:.3f} m, amcl worst {amcl_worst:.3f} m "
                       f"(at {where}), collisions {truth.collisions}")
         self.assertLess(amcl_worst, AMCL_TOL, f"amcl left the robot: {where}")

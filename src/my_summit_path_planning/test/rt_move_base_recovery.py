@@ -6,7 +6,8 @@ room to turn in place but no gap to leave by. A goal outside the ring: once the 
 has put the ring into the costmaps there is no plan (or no valid command), and move_base
 must run its default recoveries in order (conservative_reset, rotate_recovery,
 aggressive_reset, rotate_recovery), or the recovery_behaviors list it was given (~order:
-the names expected), as logged, then end ABORTED with move_base's text plus the last
+the names expected), as logged and as published on move_base/recovery_status, then end
+ABORTED with move_base's text plus the last
 failure's reason. Zero collisions by ground truth, and the robot still in the ring.
 """
 import math
@@ -16,6 +17,7 @@ import unittest
 
 import rospy
 import rostest
+from move_base_msgs.msg import RecoveryStatus
 from rosgraph_msgs.msg import Log
 
 from summit_xl_sim.srv import AddBox
@@ -31,12 +33,22 @@ ABORT_TEXTS = ("Failed to find a valid plan. Even after executing recovery behav
 
 
 class RosoutRecoveries:
-    """move_base's 'recovery behaviour i/n: name' lines from /rosout, in order."""
+    """move_base's 'recovery behaviour i/n: name' lines from /rosout, in order, and its
+    move_base/recovery_status messages."""
 
     def __init__(self):
         self.lock = threading.Lock()
         self.names = []
+        self.statuses = []
         rospy.Subscriber("/rosout", Log, self._cb, queue_size=100)
+        rospy.Subscriber("/move_base/recovery_status", RecoveryStatus, self._status, queue_size=100)
+
+    def _status(self, msg):
+        p = msg.pose_stamped
+        with self.lock:
+            self.statuses.append((msg.current_recovery_number, msg.total_number_of_recoveries,
+                                  msg.recovery_behavior_name, p.header.frame_id, p.pose.position.x,
+                                  p.pose.position.y))
 
     def _cb(self, msg):
         marker = "move_base: recovery behaviour "
@@ -66,8 +78,10 @@ class MoveBaseRecovery(unittest.TestCase):
         c.send_goal(mt.make_goal(*goal))
         state, text = mt.wait_result(c, max_sim)
         end = truth.pose
+        lu.sleep_sim(0.5)   # the last recovery_status and rosout lines in flight
         with log.lock:
             names = list(log.names)
+            statuses = list(log.statuses)
         print(f"MOVE_BASE_RECOVERY state={state} recoveries={names} collisions={truth.collisions} "
               f"moved_m={math.hypot(end[0] - x, end[1] - y):.2f} text={text!r}")
         self.assertEqual(state, "ABORTED", text)
@@ -83,6 +97,12 @@ class MoveBaseRecovery(unittest.TestCase):
         for r in runs:
             self.assertEqual(r, order[:len(r)], f"recoveries out of the order {order}: {names}")
         self.assertEqual(runs[-1], order, f"the last chain before the abort is not complete: {names}")
+        # move_base/recovery_status: one message per recovery run, as the log says, each with
+        # its 0-based number in the list, the list's length and the robot's pose in the map
+        # frame (amcl's: boxed in by walls the map lacks, amcl may be a metre or two off)
+        self.assertEqual([st[2] for st in statuses], names, f"recovery_status {statuses} vs the log {names}")
+        for number, total, name, frame, _, _ in statuses:
+            self.assertEqual((total, order[number], frame), (len(order), name, "map"), statuses)
         self.assertTrue(text.startswith(ABORT_TEXTS), f"abort text without move_base's reason: {text!r}")
         self.assertIn("Last failure: ", text, "the abort text does not say what failed last")
         self.assertGreater(len(text.split("Last failure: ", 1)[1]), 10)

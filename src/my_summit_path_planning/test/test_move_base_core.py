@@ -312,14 +312,18 @@ def test_planner_patience_then_recoveries_in_order_then_abort():
     logs = r.plan(ok=False)
     assert r.core.state == CLEARING and "starting recoveries" in logs[-1][1]
     assert r.core.plan_request() is None                     # no planning while clearing
+    statuses = []
     for _ in range(3):                                       # each recovery, then planning again (failing)
         outs = [r.cycle() for _ in range(2)]
         assert outs[0].cmd == (0.0, 0.0, 0.5) and outs[1].cmd is None   # turning, then a stop when done
+        statuses.append(outs[0].recovery)
+        assert outs[1].recovery is None                      # said once, as it starts
         assert r.core.state == PLANNING
         r.now += 1.5
         r.plan(ok=False)
         assert r.core.state == CLEARING
     assert r.started == ["a", "b", "c"]
+    assert statuses == [(0, 3, "a"), (1, 3, "b"), (2, 3, "c")]   # move_base's recovery_status
     out = r.cycle()
     assert out.end == ("aborted", RECOVERY_FAILED["planning"] + " Last failure: blocked")
 

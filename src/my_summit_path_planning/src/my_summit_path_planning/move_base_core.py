@@ -176,7 +176,9 @@ class CycleOutput:
     ends ('succeeded' or 'aborted'); trajectory: the local planner's chosen trajectory
     ((T, 3), local frame) or None; local_plan: the global plan as just handed to the
     local planner ((N, 2), local frame) or None; dump: the controller's patience ran out
-    (the node may save its inputs); logs: [(level, text, throttled)] to log.
+    (the node may save its inputs); recovery: (index from 0, count, name) when a
+    recovery behaviour starts this cycle (move_base's recovery_status), else None; logs:
+    [(level, text, throttled)] to log.
     """
 
     cmd: tuple = None
@@ -184,6 +186,7 @@ class CycleOutput:
     trajectory: object = None
     local_plan: object = None
     dump: bool = False
+    recovery: tuple = None
     logs: list = field(default_factory=list)
 
 
@@ -446,6 +449,7 @@ class MoveBaseCore:
         name, beh = self.recoveries[idx]
         if self.recovery_running != idx:
             out.logs.append((WARN, f"recovery behaviour {idx + 1}/{n}: {name}", False))
+            out.recovery = (idx, n, name)
             self.recovery_running = idx
             beh.start(local_pose, trail=list(self.trail))   # back up only where it has been
         step = beh.step(local_pose, velocity, costmap)
