@@ -57,7 +57,9 @@ class MoveBaseCarrotSlow(unittest.TestCase):
         limited_distance = rospy.get_param("~limited_distance")
         m_in_w = lu.map_in_world()
         truth = mt.Truth(m_in_w)
-        plan = lu.Latest("/move_base/CarrotPlanner/plan", Path)
+        # ours publishes the carrot's plan as the other planners' (the real carrot_planner
+        # publishes none: ~check_plan false when the real move_base runs this test)
+        plan = lu.Latest("/move_base/CarrotPlanner/plan", Path) if rospy.get_param("~check_plan", True) else None
         lu.wait_clock()
         c = mt.client()
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
@@ -77,11 +79,12 @@ class MoveBaseCarrotSlow(unittest.TestCase):
         self.assertEqual(state, "ABORTED", text)
         self.assertIn("Even after executing recovery behaviors", text)
         self.wait_params(limited, 0.3, "the limit")
-        p = plan.msg
-        self.assertIsNotNone(p, "no plan on ~CarrotPlanner/plan")
-        self.assertEqual(len(p.poses), 2, "the carrot plan is the start and the target")
-        end = p.poses[-1].pose.position
-        self.assertLess(math.hypot(end.x - goal[0], end.y - goal[1]), 1e-3, "the free goal is the carrot")
+        if plan is not None:
+            p = plan.msg
+            self.assertIsNotNone(p, "no plan on ~CarrotPlanner/plan")
+            self.assertEqual(len(p.poses), 2, "the carrot plan is the start and the target")
+            end = p.poses[-1].pose.position
+            self.assertLess(math.hypot(end.x - goal[0], end.y - goal[1]), 1e-3, "the free goal is the carrot")
 
         # 2. the ring removed: the goal is reached, slowly for the first metre
         for name in boxes:
