@@ -201,8 +201,16 @@ def test_recovery_behaviors_list(footprint):
                        ([{"name": "b", "type": BACKUP_TYPE}], r"\(b\): backup_speed")]:
         with pytest.raises(ValueError, match=match):
             recovery_sequence(bad, {"b": {"backup_speed": 0}}, PluginContext(footprint=footprint))
-    with pytest.raises(ValueError, match="unexpected keyword"):
-        recovery_sequence([{"name": "b", "type": BACKUP_TYPE}], {"b": {"speed": 0.1}}, PluginContext(footprint=footprint))
+    # A name the behaviour does not read is noted and left unread (it used to refuse the whole
+    # list for move_base's defaults), as the real recovery behaviours leave it.
+    (_, b), (_, c), (_, r) = recovery_sequence(
+        [{"name": "b", "type": BACKUP_TYPE}, {"name": "c", "type": CLEAR_TYPE}, {"name": "r", "type": ROTATE_TYPE}],
+        {"b": {"speed": 0.1, "backup_dist": 0.25}, "c": {"reset_distanse": 1.0}, "r": {"frequency": 5.0, "acc_lim_x": 1}},
+        PluginContext(footprint=footprint))
+    assert b.backup_dist == 0.25 and c.reset_distance == 3.0 and r.frequency == 5.0
+    assert b.notes == ["~b: 'speed' is not a parameter this node reads; ignored"], b.notes
+    assert "'reset_distanse'" in c.notes[0] and "reset_distance" in c.notes[0]
+    assert len(r.notes) == 1 and "'acc_lim_x'" in r.notes[0]
 
 
 def test_config_files_load():

@@ -17,6 +17,8 @@ Registered here:
                        my_summit_path_planning/BackUpRecovery, .../TurnAroundRecovery
 A registration is one line: ``REGISTRY.register(type, factory(params, ctx, where))``.
 """
+import inspect
+
 from . import recovery
 from .carrot_planner import CarrotPlanner
 from .dwa import DWAPlanner
@@ -109,7 +111,10 @@ def _clear_costmap(params, ctx, where):
     if not all(isinstance(n, str) for n in names):
         raise PluginError(f"{where}: 'layer_names' must be a list of strings, got {names!r}")
     force = _param(params, "force_clear_all", bool, False, where)
-    return recovery.ClearCostmapRecovery(ctx.global_costmap, ctx.local_costmap, reset, tuple(names), force)
+    beh = recovery.ClearCostmapRecovery(ctx.global_costmap, ctx.local_costmap, reset, tuple(names), force)
+    beh.notes = [unread_note(f"~{where}", k, ("reset_distance", "layer_names", "force_clear_all"))
+                 for k in sorted(params)]
+    return beh
 
 
 def _rotate_kwargs(ctx):
@@ -140,15 +145,25 @@ def _move_slow_and_clear(params, ctx, where):
 
 RECOVERY_BEHAVIORS.register(recovery.CLEAR_TYPE, _clear_costmap)
 RECOVERY_BEHAVIORS.register(recovery.SLOW_TYPE, _move_slow_and_clear)
-RECOVERY_BEHAVIORS.register(recovery.ROTATE_TYPE, lambda params, ctx, where: recovery.RotateRecovery(
-    ctx.footprint, **{**_rotate_kwargs(ctx), **params}))
-RECOVERY_BEHAVIORS.register(recovery.BACKUP_TYPE, lambda params, ctx, where: recovery.BackUpRecovery(
-    ctx.footprint, **{"frequency": ctx.controller_frequency,
-                      **{k: v for k, v in ctx.local_limits.items() if k == "acc_lim_x"}, **params}))
-RECOVERY_BEHAVIORS.register(recovery.TURN_AROUND_TYPE, lambda params, ctx, where: recovery.TurnAroundRecovery(
-    ctx.footprint, **{"frequency": ctx.controller_frequency,
-                      **{k: v for k, v in ctx.local_limits.items() if k == "min_in_place_rotational_vel"},
-                      **params}))
+def _behaviour(cls, defaults):
+    """A factory for a recovery class taking the footprint and keyword parameters: its
+    namespace's names the class takes, over defaults(ctx); every other name is noted and
+    left unread, as the real recovery behaviours leave what they do not read."""
+    known = [n for n in inspect.signature(cls).parameters if n != "footprint"]
+
+    def factory(params, ctx, where):
+        beh = cls(ctx.footprint, **{**defaults(ctx), **{k: v for k, v in params.items() if k in known}})
+        beh.notes = [unread_note(f"~{where}", k, known) for k in sorted(params) if k not in known]
+        return beh
+    return factory
+
+
+RECOVERY_BEHAVIORS.register(recovery.ROTATE_TYPE, _behaviour(recovery.RotateRecovery, _rotate_kwargs))
+RECOVERY_BEHAVIORS.register(recovery.BACKUP_TYPE, _behaviour(recovery.BackUpRecovery, lambda ctx: {
+    "frequency": ctx.controller_frequency, **{k: v for k, v in ctx.local_limits.items() if k == "acc_lim_x"}}))
+RECOVERY_BEHAVIORS.register(recovery.TURN_AROUND_TYPE, _behaviour(recovery.TurnAroundRecovery, lambda ctx: {
+    "frequency": ctx.controller_frequency,
+    **{k: v for k, v in ctx.local_limits.items() if k == "min_in_place_rotational_vel"}}))
 
 
 def recovery_sequence(spec, namespaces, ctx):
