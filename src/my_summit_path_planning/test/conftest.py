@@ -14,6 +14,24 @@ def footprint():
     return Footprint.from_params(SUMMIT_FOOTPRINT)
 
 
+class CostmapHandle:
+    """A costmap handle as move_base's CostmapROS gives the recoveries: layered, lock,
+    get_robot_pose() (a fixed pose, settable), name."""
+
+    def __init__(self, layered, pose, name="costmap"):
+        import threading
+        self.layered, self.lock, self.pose, self.name = layered, threading.RLock(), pose, name
+
+    def get_robot_pose(self):
+        return self.pose
+
+
+@pytest.fixture
+def costmap_handle():
+    """The CostmapHandle class (pytest's importlib mode cannot import conftest)."""
+    return CostmapHandle
+
+
 @pytest.fixture
 def make_static_costmap():
     """The static_costmap builder (pytest's importlib mode cannot import conftest)."""

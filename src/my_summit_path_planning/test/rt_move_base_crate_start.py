@@ -32,14 +32,14 @@ def amcl_error(estimates, track):
     (t, x, y) at each estimate's stamp, interpolated: under load amcl_pose arrives late,
     so the latest truth would be the wrong one (one CI run: 0.35 m while driving)."""
     t, x, y = (np.array(v) for v in zip(*track))
-    worst, where = 0.0, None
-    for ts, ex, ey in estimates:
-        if ts < t[0]:
-            continue
-        e = math.hypot(ex - np.interp(ts, t, x), ey - np.interp(ts, t, y))
-        if e > worst:
-            worst, where = e, (round(ex, 2), round(ey, 2), round(ts, 2))
-    return worst, where
+    ts, ex, ey = (np.array(v) for v in zip(*(estimates or [(-math.inf, 0.0, 0.0)])))
+    keep = ts >= t[0]
+    if not keep.any():
+        return math.inf, "no amcl_pose within the recorded truth"
+    ts, ex, ey = ts[keep], ex[keep], ey[keep]
+    e = np.hypot(ex - np.interp(ts, t, x), ey - np.interp(ts, t, y))
+    k = int(np.argmax(e))
+    return float(e[k]), (round(float(ex[k]), 2), round(float(ey[k]), 2), round(float(ts[k]), 2))
 
 
 class MoveBaseCrateStart(unittest.TestCase):

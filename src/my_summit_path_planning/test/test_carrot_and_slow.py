@@ -1,7 +1,6 @@
 """The navigation stack's other two plugins: carrot_planner/CarrotPlanner and
 move_slow_and_clear/MoveSlowAndClear, against their documented behaviour."""
 import math
-import threading
 
 import numpy as np
 import pytest
@@ -93,16 +92,6 @@ def test_carrot_is_loaded_by_type_with_its_parameters(footprint):
 
 
 # -- move_slow_and_clear ------------------------------------------------------------------------
-class Handle:
-    """A costmap handle as the node's CostmapROS: layered, lock, get_robot_pose, name."""
-
-    def __init__(self, layered, pose, name):
-        self.layered, self.lock, self.pose, self.name = layered, threading.RLock(), pose, name
-
-    def get_robot_pose(self):
-        return self.pose
-
-
 class Params:
     """The node's planner_params: a parameter server dict and the reconfigure calls made."""
 
@@ -132,15 +121,15 @@ def dwa_params():
     return Params({"DWAPlannerROS/max_vel_trans": 0.55, "DWAPlannerROS/max_vel_theta": 1.0})
 
 
-def slow(footprint, params, pose=(1.0, 0.0, 0.0), **kw):
-    g, loc = Handle(marked(footprint), pose, "global_costmap"), Handle(marked(footprint), (0.0, 0.0, 0.0),
+def slow(footprint, handle, params, pose=(1.0, 0.0, 0.0), **kw):
+    g, loc = handle(marked(footprint), pose, "global_costmap"), handle(marked(footprint), (0.0, 0.0, 0.0),
                                                                        "local_costmap")
     kw = {"max_trans_param_name": "max_vel_trans", "max_rot_param_name": "max_vel_theta", **kw}
     return MoveSlowAndClear(g, loc, params, **kw), g, loc
 
 
-def test_clears_inside_the_square_in_the_obstacles_layers_only(footprint):
-    rec, g, loc = slow(footprint, dwa_params())
+def test_clears_inside_the_square_in_the_obstacles_layers_only(footprint, costmap_handle):
+    rec, g, loc = slow(footprint, costmap_handle, dwa_params())
     rec.start((0.0, 0.0, 0.0))
     assert rec.step((0.0, 0.0, 0.0)).done and rec.cleared == ["obstacles", "obstacles"]
     for h in (g, loc):
@@ -152,9 +141,9 @@ def test_clears_inside_the_square_in_the_obstacles_layers_only(footprint):
         assert int((ob.data == cv.FREE_SPACE).sum()) == 21 * 21   # x +- 0.5 m: cells -10..+10
 
 
-def test_limits_the_speeds_until_the_robot_has_moved_then_restores_them(footprint):
+def test_limits_the_speeds_until_the_robot_has_moved_then_restores_them(footprint, costmap_handle):
     params = dwa_params()
-    rec, g, _ = slow(footprint, params, limited_trans_speed=0.2, limited_rot_speed=0.4, limited_distance=0.3)
+    rec, g, _ = slow(footprint, costmap_handle, params, limited_trans_speed=0.2, limited_rot_speed=0.4, limited_distance=0.3)
     step = rec.step((0.0, 0.0, 0.0))
     assert params.calls == [("DWAPlannerROS", {"max_vel_trans": 0.2, "max_vel_theta": 0.4})]
     assert "max_vel_trans 0.2" in step.reason and rec.limit_set
@@ -171,9 +160,9 @@ def test_limits_the_speeds_until_the_robot_has_moved_then_restores_them(footprin
     assert rec.tick() == "" and len(params.calls) == 3
 
 
-def test_the_real_defaults_name_parameters_dwa_no_longer_has(footprint):
+def test_the_real_defaults_name_parameters_dwa_no_longer_has(footprint, costmap_handle):
     params = dwa_params()
-    rec, _, _ = slow(footprint, params, max_trans_param_name="max_trans_vel", max_rot_param_name="max_rot_vel")
+    rec, _, _ = slow(footprint, costmap_handle, params, max_trans_param_name="max_trans_vel", max_rot_param_name="max_rot_vel")
     step = rec.step((0.0, 0.0, 0.0))
     assert "The planner ~DWAPlannerROS, does not have the parameter max_trans_vel" in step.reason
     assert params.server["DWAPlannerROS/max_vel_trans"] == 0.55      # unchanged: the names are unknown
@@ -182,8 +171,8 @@ def test_the_real_defaults_name_parameters_dwa_no_longer_has(footprint):
     assert params.calls[-1][1] == {"max_trans_vel": 0.25, "max_rot_vel": 0.45}   # nothing to restore
 
 
-def test_loaded_by_type_with_notes_and_bad_values(footprint):
-    g, loc = Handle(marked(footprint, ("obstacle_layer",)), (0, 0, 0), "global_costmap"), None
+def test_loaded_by_type_with_notes_and_bad_values(footprint, costmap_handle):
+    g, loc = costmap_handle(marked(footprint, ("obstacle_layer",)), (0, 0, 0), "global_costmap"), None
     p = move_base_params({"base_local_planner": DWA, "recovery_behaviors": [
         {"name": "slow", "type": "move_slow_and_clear/MoveSlowAndClear"}],
         "slow": {"limited_trans_speed": 0.1, "limited_distanc": 1.0}})

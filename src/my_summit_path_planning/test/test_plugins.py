@@ -202,18 +202,7 @@ def test_trajectory_planner_limits_read_as_rotate_recovery_does():
         plugins.trajectory_planner_limits({"acc_lim_theta": "fast"})
 
 
-class _Handle:
-    """A costmap handle as the node's CostmapROS: layered, lock, get_robot_pose."""
-
-    def __init__(self, layered, pose):
-        import threading
-        self.layered, self.lock, self.pose = layered, threading.RLock(), pose
-
-    def get_robot_pose(self):
-        return self.pose
-
-
-def test_clear_costmap_clears_each_costmap_around_its_own_pose(footprint):
+def test_clear_costmap_clears_each_costmap_around_its_own_pose(footprint, costmap_handle):
     from my_summit_path_planning import cost_values as cv
     from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
 
@@ -225,7 +214,8 @@ def test_clear_costmap_clears_each_costmap_around_its_own_pose(footprint):
         return lc
 
     g, loc = layered(), layered()
-    rec = ClearCostmapRecovery(_Handle(g, (2.0, 0.0, 0.0)), _Handle(loc, (0.0, 0.0, 0.0)), reset_distance=1.0)
+    rec = ClearCostmapRecovery(costmap_handle(g, (2.0, 0.0, 0.0)), costmap_handle(loc, (0.0, 0.0, 0.0)),
+                               reset_distance=1.0)
     rec.start((0.0, 0.0, 0.0))
     assert rec.step((0.0, 0.0, 0.0)).done and rec.cleared == ["obstacle_layer", "obstacle_layer"]
     for lc, (x, y) in ((g, (2.0, 0.0)), (loc, (0.0, 0.0))):

@@ -25,7 +25,8 @@ import numpy as np
 
 from .navfn import PlanResult
 from .params import ParamError
-from .trajectory_planner import footprint_costs
+from .trajectory_planner import footprint_cost_reference, footprint_costs
+from summit_nav_common.geometry import wrap_angle
 
 
 def _carrot_scales():
@@ -41,11 +42,6 @@ def _carrot_scales():
 SCALES = _carrot_scales()
 KNOWN_PARAMS = ("step_size", "min_dist_from_robot")
 NO_TARGET = "The carrot planner could not find a valid plan for this goal"
-
-
-def wrap(a):
-    """Angle wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 class CarrotPlanner:
@@ -83,9 +79,9 @@ class CarrotPlanner:
         """(M, 3) poses tried, goal first, then stepping back to the start."""
         sx, sy, syaw = (float(v) for v in start)
         gx, gy, gyaw = (float(v) for v in goal)
-        dyaw = wrap(gyaw - syaw)
+        dyaw = wrap_angle(gyaw - syaw)
         return np.column_stack([sx + SCALES * (gx - sx), sy + SCALES * (gy - sy),
-                                np.array([wrap(syaw + s * dyaw) for s in SCALES])])
+                                wrap_angle(syaw + SCALES * dyaw)])
 
     def make_plan(self, costmap, start, goal, tolerance=None):
         """Plan on costmap from start to goal, each (x, y[, yaw]) [m, rad] (a missing yaw
@@ -107,7 +103,6 @@ class CarrotPlanner:
 
     def make_plan_reference(self, costmap, start, goal):
         """The same, pose by pose with the cell-by-cell footprint check (test oracle)."""
-        from .trajectory_planner import footprint_cost_reference
         start, goal = _pose(start), _pose(goal)
         for pose in self.targets(start, goal):
             if footprint_cost_reference(costmap, self.footprint.polygon, *pose) >= 0.0:

@@ -131,7 +131,7 @@ SLOW_PARAMS = (("clearing_distance", (int, float), 0.5), ("limited_trans_speed",
 
 
 def _move_slow_and_clear(params, ctx, where):
-    """move_slow_and_clear from ~<name> (its names and defaults); .warnings: the names it
+    """move_slow_and_clear from ~<name> (its names and defaults); .notes: the names it
     does not read and the costmaps where it would clear nothing."""
     values = {name: _param(params, name, kind, default, where) for name, kind, default in SLOW_PARAMS}
     for name in ("clearing_distance", "limited_trans_speed", "limited_rot_speed", "limited_distance"):
@@ -139,7 +139,7 @@ def _move_slow_and_clear(params, ctx, where):
             raise PluginError(f"{where}: '{name}' must be >= 0, got {values[name]!r}")
     beh = recovery.MoveSlowAndClear(ctx.global_costmap, ctx.local_costmap, ctx.planner_params, **values)
     known = [n for n, _, _ in SLOW_PARAMS]
-    beh.notes = [unread_note(f"~{where}", k, known) for k in sorted(params)] + beh.warnings()
+    beh.notes = [unread_note(f"~{where}", k, known) for k in sorted(params)] + beh.clearing_notes()
     return beh
 
 

@@ -153,7 +153,7 @@ class MoveSlowAndClear:
         self.limit_pose = None      # (x, y) in the global frame where the limit began
         self.cleared = []
 
-    def warnings(self):
+    def clearing_notes(self):
         """Why this behaviour would clear nothing in a costmap (said once at start)."""
         out = []
         for c in (self.global_costmap, self.local_costmap):
@@ -169,11 +169,11 @@ class MoveSlowAndClear:
 
     def step(self, pose, velocity=None, costmap=None):
         """Clear around the robot and set the speed limits; done at once."""
-        notes, self.cleared = [], []
+        notes, self.cleared, poses = [], [], {}
         for c in (self.global_costmap, self.local_costmap):
             if c is None:
                 continue
-            robot = c.get_robot_pose()
+            robot = poses[id(c)] = c.get_robot_pose()
             if robot is None:
                 notes.append(f"no robot pose in {getattr(c, 'name', 'a costmap')}: not cleared")
                 continue
@@ -190,7 +190,7 @@ class MoveSlowAndClear:
                     notes.append(f"The planner ~{self.namespace}, does not have the parameter {name}")
                 else:
                     self.old[name] = value
-        g = self.global_costmap.get_robot_pose() if self.global_costmap is not None else None
+        g = poses.get(id(self.global_costmap))     # None: tick() starts from its first pose
         self.limit_pose = None if g is None else (g[0], g[1])
         self.planner_params.set(self.namespace, dict(self.limits))
         self.limit_set = True
