@@ -98,6 +98,20 @@ def test_distance_field_is_euclidean():
     assert d[0, 0] == pytest.approx(math.hypot(4, 4), abs=1e-2)
 
 
+
+def test_distance_field_matches_brute_force():
+    """Exact Euclidean distance to the nearest occupied cell centre, against every
+    occupied cell by brute force, on random grids (non-square, sparse and dense)."""
+    rng = np.random.default_rng(3)
+    for shape, p in (((13, 21), 0.05), ((30, 17), 0.3), ((8, 8), 0.9)):
+        occ = rng.random(shape) < p
+        d = raycast.distance_field(occ)
+        assert d.dtype == np.float32 and d.shape == shape
+        oy, ox = np.nonzero(occ)
+        yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+        brute = np.min(np.hypot(yy[..., None] - oy, xx[..., None] - ox), axis=-1)
+        np.testing.assert_allclose(d, brute, rtol=1e-6, atol=1e-6)
+
 def test_ray_along_a_cell_boundary_ends(tmp_path):
     """A ray along a cell boundary (origin y exactly on a row edge, dy = -1.2e-16 from
     sin(-pi)) used to loop forever in willow-full: after a safe jump it landed in the row

@@ -41,7 +41,6 @@ an origin yaw (map_server's origin); poses are taken into the grid frame first.
 """
 import math
 
-import cv2
 import numpy as np
 
 from summit_nav_common import raycast
@@ -88,8 +87,7 @@ def obstacle_distance_field(data, resolution, max_dist):
     occupied = np.asarray(data) == OCCUPIED
     if not occupied.any():
         return np.full(occupied.shape, float(max_dist))
-    free = np.ascontiguousarray(~occupied, dtype=np.uint8)
-    cells = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    cells = raycast.distance_field(occupied)
     return np.minimum(cells.astype(np.float64) * resolution, max_dist)
 
 

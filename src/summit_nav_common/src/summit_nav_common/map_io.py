@@ -17,7 +17,6 @@ import math
 import os
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 import yaml
 
@@ -213,6 +212,9 @@ def image_to_grid(pixels, negate, occupied_thresh, free_thresh, mode):
 
 def _grid_from_image(meta, where):
     """GridMap from the checked fields of a map (read_map_yaml's dict); errors start with where."""
+    # Imported here: OpenCV costs a process ~100 MB, and the nodes that only pass
+    # GridMaps around (amcl) never read an image.
+    import cv2
     pixels = cv2.imread(meta["image"], cv2.IMREAD_UNCHANGED)
     if pixels is None:
         raise MapError(f"{where}: cannot read {meta['image']} as an image")
