@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from summit_nav_common import raycast
+from summit_nav_common.distance import distance_field
 from summit_nav_common.map_io import OCCUPIED, GridMap, load_map
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -32,7 +33,7 @@ def walls_of(path):
     walls = grid.data == OCCUPIED
     walls[[0, -1], :] = True
     walls[:, [0, -1]] = True
-    return grid, walls, raycast.distance_field(walls)
+    return grid, walls, distance_field(walls)
 
 
 @pytest.mark.parametrize("path", [SYNTHETIC, WILLOW])
@@ -53,7 +54,7 @@ def test_fast_matches_oracle(path):
 def test_known_distances_in_a_box():
     occ = np.zeros((20, 20), bool)
     occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
-    dist = raycast.distance_field(occ)
+    dist = distance_field(occ)
     r = raycast.cast_rays(occ, dist, 10.0, 10.0, np.array([0.0, math.pi / 2, math.pi, -math.pi / 2]), 100.0)
     # Walls occupy cells 0 and 19: their inner faces are at 1 and 19.
     np.testing.assert_allclose(r, [9.0, 9.0, 9.0, 9.0])
@@ -63,11 +64,11 @@ def test_known_distances_in_a_box():
 
 def test_ray_leaving_the_grid_and_tmax():
     occ = np.zeros((10, 10), bool)
-    dist = raycast.distance_field(occ)
+    dist = distance_field(occ)
     r = raycast.cast_rays(occ, dist, 5.0, 5.0, np.array([0.0, 1.0]), 50.0)
     np.testing.assert_array_equal(r, [50.0, 50.0])
     occ[5, 9] = True
-    dist = raycast.distance_field(occ)
+    dist = distance_field(occ)
     assert raycast.cast_rays(occ, dist, 5.5, 5.5, np.array([0.0]), 2.0)[0] == 2.0
 
 
@@ -88,29 +89,6 @@ def test_rectangles_against_sampling():
         expect = t[np.argmax(inside)] if inside.any() else 10.0
         assert g == pytest.approx(expect, abs=0.002)
 
-
-def test_distance_field_is_euclidean():
-    occ = np.zeros((9, 9), bool)
-    occ[4, 4] = True
-    d = raycast.distance_field(occ)
-    assert d[4, 4] == 0
-    assert d[4, 7] == pytest.approx(3.0, abs=1e-3)
-    assert d[0, 0] == pytest.approx(math.hypot(4, 4), abs=1e-2)
-
-
-
-def test_distance_field_matches_brute_force():
-    """Exact Euclidean distance to the nearest occupied cell centre, against every
-    occupied cell by brute force, on random grids (non-square, sparse and dense)."""
-    rng = np.random.default_rng(3)
-    for shape, p in (((13, 21), 0.05), ((30, 17), 0.3), ((8, 8), 0.9)):
-        occ = rng.random(shape) < p
-        d = raycast.distance_field(occ)
-        assert d.dtype == np.float32 and d.shape == shape
-        oy, ox = np.nonzero(occ)
-        yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
-        brute = np.min(np.hypot(yy[..., None] - oy, xx[..., None] - ox), axis=-1)
-        np.testing.assert_allclose(d, brute, rtol=1e-6, atol=1e-6)
 
 def test_ray_along_a_cell_boundary_ends(tmp_path):
     """A ray along a cell boundary (origin y exactly on a row edge, dy = -1.2e-16 from
@@ -140,7 +118,7 @@ def test_incidence_on_cell_edges_and_rectangle_faces():
     occ = np.zeros((40, 40), bool)
     occ[:, 30] = True                       # a vertical wall: cells x 30-31
     occ[5, :] = True                        # a horizontal wall: cells y 5-6
-    dist = raycast.distance_field(occ)
+    dist = distance_field(occ)
     ang = np.radians([0.0, 30.0, -60.0, -100.0, -170.0 + 360.0])
     t = raycast.cast_rays(occ, dist, 10.5, 20.5, ang, 100.0)
     cos_inc = raycast.grid_hit_cos_incidence(10.5, 20.5, ang, t)

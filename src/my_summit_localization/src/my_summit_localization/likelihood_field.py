@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from summit_nav_common import raycast
+from summit_nav_common.distance import distance_field
 
 OCCUPIED = 100   # OccupancyGrid value amcl treats as an obstacle (occ_state +1)
 FREE = 0         # value amcl counts as free space (occ_state -1)
@@ -87,7 +87,7 @@ def obstacle_distance_field(data, resolution, max_dist):
     occupied = np.asarray(data) == OCCUPIED
     if not occupied.any():
         return np.full(occupied.shape, float(max_dist))
-    cells = raycast.distance_field(occupied)
+    cells = distance_field(occupied)
     return np.minimum(cells.astype(np.float64) * resolution, max_dist)
 
 
@@ -308,6 +308,13 @@ def likelihood_field_reference(grid, config, particles, ranges, bearings, laser_
 
 
 # -- beam model -----------------------------------------------------------------------
+def _raycast():
+    """summit_nav_common.raycast, imported on first use: its compiled caster loads numba
+    (~60 MB of the node's memory), which only the beam model needs."""
+    from summit_nav_common import raycast
+    return raycast
+
+
 def beam_pz(obs, expected, config, range_max):
     """amcl's BeamModel per-beam mixture pz for observed / expected ranges [m] (arrays)."""
     c = config
@@ -327,7 +334,7 @@ class BeamModel:
         self.cfg = config
         self.frame = _GridFrame(grid)
         self.occupied = np.ascontiguousarray(np.asarray(grid.data) == OCCUPIED)
-        self.dist_cells = raycast.distance_field(self.occupied)
+        self.dist_cells = distance_field(self.occupied)
         self.last_beams = 0         # beams used by the last weights() call
 
     def per_beam_likelihood(self, total, n_beams):
@@ -346,7 +353,7 @@ class BeamModel:
         tmax = range_max / f.resolution
         bearings = np.asarray(bearings, np.float64)
         for i in range(particles.shape[0]):
-            raycast.cast_rays(self.occupied, self.dist_cells, sx[i], sy[i], yaw[i] + bearings,
+            _raycast().cast_rays(self.occupied, self.dist_cells, sx[i], sy[i], yaw[i] + bearings,
                               tmax, out=out[i])
         out *= f.resolution
         np.minimum(out, range_max, out=out)
@@ -381,7 +388,7 @@ def beam_model_reference(grid, config, particles, ranges, bearings, laser_xy, ra
         for r, b in zip(ranges, bearings):
             if math.isnan(r):
                 continue
-            expected = raycast.cast_rays_reference(occupied, ox, oy, [yaw + b],
+            expected = _raycast().cast_rays_reference(occupied, ox, oy, [yaw + b],
                                                    range_max / frame.resolution)[0]
             expected = min(expected * frame.resolution, range_max)
             z = r - expected

@@ -27,7 +27,6 @@ cell (i, j) covering [i, i+1) x [j, j+1)). world.py converts metres and map orig
 import math
 
 import numpy as np
-from scipy import ndimage
 
 from summit_nav_common.jit import njit
 
@@ -35,20 +34,6 @@ SQRT2 = math.sqrt(2.0)
 # Below this distance to the nearest occupied cell centre [cells] the march hands over to
 # the exact cell-by-cell traversal; above it a march step is at least SAFE_MARCH - sqrt(2).
 SAFE_MARCH = 2.5
-
-
-def distance_field(occupied):
-    """Distance [cells] from each cell centre to the nearest occupied cell centre.
-
-    Occupied cells get 0. SciPy's exact Euclidean distance transform (Maurer et al.
-    2003), not OpenCV's: amcl needs nothing else of OpenCV, whose import alone costs a
-    node ~100 MB of memory; it runs once per map.
-    """
-    free = ~np.asarray(occupied, dtype=bool)
-    if not free.any() or free.all():
-        big = float(sum(free.shape))
-        return np.where(free, np.float32(big), np.float32(0.0)).astype(np.float32)
-    return ndimage.distance_transform_edt(free).astype(np.float32)
 
 
 @njit(cache=True, nogil=True)
@@ -121,7 +106,8 @@ def _cast_many(occ, dist, ox, oy, angles, tmax, out):
 def cast_rays(occupied, dist, ox, oy, angles, tmax, out=None):
     """Ranges [cells] of rays from (ox, oy) [cells] at ``angles`` [rad, grid frame].
 
-    occupied: (H, W) bool; dist: distance_field(occupied); tmax: max range [cells].
+    occupied: (H, W) bool; dist: distance.distance_field(occupied) (summit_nav_common);
+    tmax: max range [cells].
     Returns a float64 array (``out`` when given); tmax where no cell is hit.
     """
     angles = np.ascontiguousarray(angles, dtype=np.float64)

@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from summit_nav_common import raycast
+from summit_nav_common.distance import distance_field
 from summit_nav_common.map_io import FREE, OCCUPIED, UNKNOWN, load_map
 
 RAW_WALL_VALUE = 65  # raw mode: cell values are 0..255 occupancy in percent-like units
@@ -67,7 +68,7 @@ class World:
             walls = grid.data == OCCUPIED
         beyond = grid.source.get("unknown_solid_beyond")
         if beyond is not None:
-            to_free = raycast.distance_field(grid.data == FREE) * float(grid.resolution)  # [m], cell centres
+            to_free = distance_field(grid.data == FREE) * float(grid.resolution)  # [m], cell centres
             walls = walls | ((grid.data == UNKNOWN) & (to_free > beyond))
         # The map's outermost cells are walls: the robot cannot leave the map, so the laser
         # must see where it stops (where free cells reach the edge, as on willow-full's
@@ -75,7 +76,7 @@ class World:
         walls[[0, -1], :] = True      # walls is a new array here (comparisons above)
         walls[:, [0, -1]] = True
         self.walls = np.ascontiguousarray(walls)
-        self.dist = raycast.distance_field(self.walls)  # [cells]
+        self.dist = distance_field(self.walls)  # [cells]
         self.resolution = float(grid.resolution)
         self.origin = tuple(float(v) for v in grid.origin)
         self._cos_o, self._sin_o = math.cos(self.origin[2]), math.sin(self.origin[2])
