@@ -108,6 +108,57 @@ def test_rows_flipped_and_alpha(tmp_path):
     assert grid[0, 0] > 0 and grid[0, 1] == -1
 
 
+
+def yaml_for(tmp_path, image, mode="trinary", negate=0):
+    path = tmp_path / f"{image}.{mode}.{negate}.yaml"
+    path.write_text(f"image: {image}\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: {negate}\n"
+                    f"occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: {mode}\n")
+    return str(path)
+
+
+def test_image_formats_as_the_real_map_server_reads_them(tmp_path):
+    """What SDL_image hands the real map_server, checked against it (noetic, 84 cases of
+    compare_map_server.py, 2026-11-27): before, ours (OpenCV) differed on 28 of them. A
+    palette image is read as its palette indices, not colours; a 16-bit image as the high
+    byte; scale mode takes the last byte of an RGB pixel (blue; red in a BMP) as alpha;
+    grey with alpha counts as four bytes (grey three times, then alpha)."""
+    from PIL import Image
+    # Palette: index 1 is black, index 0 white; raw mode gives the indices.
+    pal = Image.new("P", (3, 1))
+    pal.putpalette([255, 255, 255, 0, 0, 0] + [0] * 762)
+    pal.putdata([0, 1, 1])
+    for ext in ("png", "bmp"):
+        pal.save(tmp_path / f"pal.{ext}")
+        raw = load_map(yaml_for(tmp_path, f"pal.{ext}", "raw")).data[0]
+        np.testing.assert_array_equal(raw, [0, 1, 1])
+    # 16-bit grey: the high byte (0x12AB -> 0x12 = 18).
+    Image.fromarray(np.array([[0x12AB, 0xFFFF]], np.uint16), "I;16").save(tmp_path / "g16.png")
+    np.testing.assert_array_equal(load_map(yaml_for(tmp_path, "g16.png", "raw")).data[0].view(np.uint8), [18, 255])
+    # Scale mode, RGB (200, 200, 0): mean 133.3, occ 0.48, between the thresholds; the
+    # last byte 0 reads as transparent -> unknown. In a BMP the bytes are B, G, R, so
+    # (0, 200, 200) is the one read as transparent.
+    rgb = np.array([[[200, 200, 0], [0, 200, 200]]], np.uint8)
+    for ext, unknown in (("png", 0), ("bmp", 1)):
+        Image.fromarray(rgb, "RGB").save(tmp_path / f"rgb.{ext}")
+        scale = load_map(yaml_for(tmp_path, f"rgb.{ext}", "scale")).data[0]
+        assert scale[unknown] == -1 and scale[1 - unknown] == int(1 + 98 * ((255 - 400 / 3) / 255 - 0.196)
+                                                                 / (0.65 - 0.196))
+    # Grey 254 with alpha 100, trinary: (3 x 254 + 100) / 4 = 215.5, occ 0.155 -> free
+    # (as two bytes the mean would be 177, occ 0.31 -> unknown).
+    Image.fromarray(np.array([[[254, 100]]], np.uint8), "LA").save(tmp_path / "la.png")
+    assert load_map(yaml_for(tmp_path, "la.png")).data[0, 0] == 0
+
+
+def test_file_that_is_not_an_image_names_it(tmp_path):
+    (tmp_path / "m.png").write_text("not an image")
+    with pytest.raises(MapError, match=r"field 'image': cannot read .*m\.png as an image"):
+        load_map(yaml_for(tmp_path, "m.png"))
+    (tmp_path / "f.tiff").write_bytes(b"")
+    from PIL import Image
+    Image.fromarray(np.zeros((2, 2), np.float32), "F").save(tmp_path / "f.tiff")
+    with pytest.raises(MapError, match="F pixels; map_server reads 8- and 16-bit grey"):
+        load_map(yaml_for(tmp_path, "f.tiff"))
+
 def test_save_then_load_round_trip(tmp_path):
     data = np.array([[0, 100, -1], [50, 10, 90]], np.int8)
     grid = GridMap(data=data, resolution=0.05, origin=(-1.5, 2.25, 0.0))

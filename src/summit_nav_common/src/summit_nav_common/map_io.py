@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import yaml
+from PIL import Image
 
 from summit_nav_common.files import write_atomic
 
@@ -180,7 +181,10 @@ def image_to_grid(pixels, negate, occupied_thresh, free_thresh, mode):
     Exactly map_server's loop, vectorized: colour channels averaged (alpha averaged in
     too in trinary mode, as map_server does), optional negate, occ = (255 - v) / 255,
     thresholds, scale mode's 1 + 98 * ratio (truncated toward zero as C's int cast),
-    raw mode's plain value, and the rows flipped so row 0 is the lowest.
+    raw mode's plain value, and the rows flipped so row 0 is the lowest. Scale mode marks
+    a cell between the thresholds unknown when its pixel's *last* byte is 0: map_server
+    reads that byte as alpha whatever the image (on an RGB image, blue; on a BMP, red).
+    pixels: as read_image gives them.
     """
     img = np.asarray(pixels)
     if img.dtype != np.uint8:
@@ -191,7 +195,7 @@ def image_to_grid(pixels, negate, occupied_thresh, free_thresh, mode):
     has_alpha = n_channels in (2, 4)
     avg_channels = n_channels if (mode == "trinary" or not has_alpha) else n_channels - 1
     color = img[:, :, :avg_channels].astype(np.float64).sum(axis=2) / avg_channels
-    alpha = img[:, :, -1].astype(np.float64) if has_alpha else np.full(color.shape, 1.0)
+    alpha = img[:, :, -1].astype(np.float64) if n_channels > 1 else np.full(color.shape, 1.0)
     if negate:
         color = 255.0 - color
     if mode == "raw":
@@ -210,17 +214,53 @@ def image_to_grid(pixels, negate, occupied_thresh, free_thresh, mode):
     return value[::-1].astype(np.uint8).view(np.int8).copy()
 
 
+# Files whose colour pixels SDL_image keeps in the file's blue-first byte order.
+BGR_FORMATS = ("BMP", "TGA")
+
+
+def read_image(path):
+    """An image file's pixels as map_server sees them through SDL_image: uint8, (H, W)
+    for one byte per pixel, else (H, W, C) in the surface's byte order.
+
+    Checked against the real map_server (noetic) on PNG, BMP, PGM/PPM and JPEG files
+    (docs/map_server.md): a palette image gives its palette *indices* (SDL keeps the
+    8-bit surface and map_server reads its bytes), a 16-bit image the high byte of each
+    value, grey with alpha four bytes (grey three times, then alpha), bilevel 0 / 255;
+    BMP and TGA colours come blue first. MapError for a file that is not an image or a
+    pixel format map_server cannot read.
+    """
+    try:
+        with Image.open(path) as im:
+            im.load()
+            fmt, mode = im.format, im.mode
+            if mode in ("L", "P"):
+                return np.array(im, dtype=np.uint8)
+            if mode in ("I", "I;16", "I;16B", "I;16L"):  # 16-bit grey (PNG's comes as "I")
+                values = np.array(im)
+                if values.min() < 0 or values.max() > 65535:
+                    raise MapError(f"{path}: {mode} pixels beyond 16 bits; "
+                                   f"map_server reads 8- and 16-bit images")
+                return (values.astype(np.uint32) >> 8).astype(np.uint8)
+            if mode == "1":
+                return np.array(im.convert("L"), dtype=np.uint8)
+            if mode in ("LA", "La", "PA", "RGBA", "RGBa"):
+                pixels = np.array(im.convert("RGBA"), dtype=np.uint8)
+            elif mode in ("RGB", "RGBX", "CMYK", "YCbCr", "LAB", "HSV"):
+                pixels = np.array(im.convert("RGB"), dtype=np.uint8)
+            else:
+                raise MapError(f"{path}: {mode} pixels; map_server reads 8- and 16-bit grey, "
+                               f"palette, RGB and RGBA images")
+    except (OSError, ValueError, Image.DecompressionBombError) as e:
+        raise MapError(f"cannot read {path} as an image: {e}") from None
+    if fmt in BGR_FORMATS:
+        pixels[:, :, :3] = pixels[:, :, 2::-1].copy()
+    return pixels
+
+
 def _grid_from_image(meta, where):
     """GridMap from the checked fields of a map (read_map_yaml's dict); errors start with where."""
-    # Imported here: OpenCV costs a process ~100 MB, and the nodes that only pass
-    # GridMaps around (amcl) never read an image.
-    import cv2
-    pixels = cv2.imread(meta["image"], cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        raise MapError(f"{where}: cannot read {meta['image']} as an image")
-    # OpenCV gives BGR(A): the channel order does not matter to an average, and alpha
-    # stays last as map_server expects.
     try:
+        pixels = read_image(meta["image"])
         data = image_to_grid(pixels, meta["negate"], meta["occupied_thresh"],
                              meta["free_thresh"], meta["mode"])
     except MapError as e:
