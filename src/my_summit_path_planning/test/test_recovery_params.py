@@ -65,6 +65,27 @@ def test_conservative_and_aggressive_reset(footprint):
     assert (lc.master.data == cv.FREE_SPACE).all()
 
 
+
+def test_rotate_recovery_sim_granularity_is_radians(footprint, monkeypatch):
+    """rotate_recovery's ~sim_granularity is the angle between footprint checks (the wiki:
+    "the distance in radians between checks", rotate_recovery.cpp steps the angle by it).
+    Ours read it as metres of arc at the circumscribed radius: 0.017 became 0.037 rad
+    for the Summit, and a user's value was stretched the same way."""
+    import my_summit_path_planning.recovery as recovery
+    seen = {}
+
+    def spy(fp, costmap, pose, x, y, th, limit=None):
+        seen["th"] = np.asarray(th)
+        return True
+    monkeypatch.setattr(recovery, "footprint_free", spy)
+    free = Costmap2D(100, 100, 0.05, -2.5, -2.5)
+    for granularity in (0.017, 0.1):
+        rec = RotateRecovery(footprint, sim_granularity=granularity)
+        rec.start((0.0, 0.0, 0.0))
+        assert rec.step((0.0, 0.0, 0.0), (0, 0, 0), free).ok
+        steps = np.diff(np.concatenate([[0.0], seen["th"]]))
+        assert steps.max() <= granularity + 1e-9 and steps.min() > 0.9 * granularity
+
 def test_rotate_recovery_turns_once_and_stops_when_blocked(footprint):
     free = Costmap2D(100, 100, 0.05, -2.5, -2.5)
     rec = RotateRecovery(footprint)

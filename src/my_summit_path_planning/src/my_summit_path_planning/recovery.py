@@ -263,8 +263,8 @@ def pose_clearance(footprint, costmap, pose):
 class RotateRecovery:
     """rotate_recovery: turn a full circle in place, checking the footprint ahead.
 
-    Parameters (rotate_recovery / base_local_planner names): sim_granularity [m]
-    (footprint check spacing along the turn, as an arc at the circumscribed radius),
+    Parameters (rotate_recovery / base_local_planner names): sim_granularity [rad]
+    (footprint check spacing along the turn; the wiki's and rotate_recovery.cpp's unit),
     frequency [Hz], acc_lim_th [rad/s^2], max_rotational_vel [rad/s],
     min_in_place_rotational_vel [rad/s], yaw_goal_tolerance [rad]; footprint: Footprint.
     """
@@ -307,10 +307,9 @@ class RotateRecovery:
 
     def _free(self, pose, angle, costmap):
         """The footprint stays free of lethal/unknown cells over the next angle [rad] of turn
-        (checked every sim_granularity [m] of arc at the circumscribed radius, with DWA's
-        footprint_clearance: axis circles, refined by the grid circles and the corners
-        near obstacles)."""
-        step = self.sim_granularity / max(self.footprint.circumscribed_radius, 1e-6)
+        (checked every sim_granularity [rad], with DWA's footprint_clearance: axis circles,
+        refined by the grid circles and the corners near obstacles)."""
+        step = max(self.sim_granularity, 1e-6)
         n = max(1, int(math.ceil(angle / step)))
         sign = 1.0 if angle >= 0 else -1.0
         ths = pose[2] + sign * abs(angle) * np.arange(1, n + 1) / n
