@@ -3,7 +3,7 @@ import os
 
 import pytest
 
-from my_summit_path_planning import plugins
+from my_summit_path_planning import plugins, recovery
 from my_summit_path_planning.costmap import Footprint
 from my_summit_path_planning.dwa import DWAPlanner
 from my_summit_path_planning.nav_core import PluginContext, PluginError, Registry
@@ -215,13 +215,80 @@ def test_clear_costmap_clears_each_costmap_around_its_own_pose(footprint, costma
 
     g, loc = layered(), layered()
     rec = ClearCostmapRecovery(costmap_handle(g, (2.0, 0.0, 0.0)), costmap_handle(loc, (0.0, 0.0, 0.0)),
-                               reset_distance=1.0)
+                               reset_distance=1.0, layer_names=("obstacle_layer",))
     rec.start((0.0, 0.0, 0.0))
     assert rec.step((0.0, 0.0, 0.0)).done and rec.cleared == ["obstacle_layer", "obstacle_layer"]
     for lc, (x, y) in ((g, (2.0, 0.0)), (loc, (0.0, 0.0))):
         lc.update_map(x, y, 0.0)
         assert lc.master.cost_at(x + 0.45, y) == cv.LETHAL_OBSTACLE       # kept inside the square
         assert lc.master.cost_at(x - 1.0, y) == cv.FREE_SPACE             # cleared outside
+
+
+def _lethal_obstacle_costmap(footprint, name="obstacle_layer"):
+    from my_summit_path_planning import cost_values as cv
+    from my_summit_path_planning.costmap import Costmap2D, LayeredCostmap
+    lc = LayeredCostmap.from_plugins([{"name": name, "type": "costmap_2d::ObstacleLayer"}],
+                                     {name: {"observation_sources": ""}},
+                                     Costmap2D(200, 200, 0.05, -5.0, -5.0), footprint)
+    lc.layer(name).grid.data[:] = cv.LETHAL_OBSTACLE
+    return lc
+
+
+def test_clear_costmap_recovery_takes_the_real_nodes_parameters(footprint, costmap_handle):
+    """clear_costmap_recovery (noetic) reads layer_names (default [obstacles]: the course's
+    obstacle_layer is then not cleared, in the real node too), invert_area_to_clear,
+    affected_maps and force_updating. Ours read only the first, with [obstacle_layer] as
+    its default, and left the others unread: a config asking to clear only the local
+    costmap, or inside the square, cleared both, outside."""
+    from my_summit_path_planning import cost_values as cv
+    ctx = PluginContext(footprint=footprint)
+
+    def build(params, names=("obstacle_layer", "obstacle_layer")):
+        g = _lethal_obstacle_costmap(footprint, names[0])
+        loc = _lethal_obstacle_costmap(footprint, names[1])
+        ctx.global_costmap = costmap_handle(g, (0.0, 0.0, 0.0), "global_costmap")
+        ctx.local_costmap = costmap_handle(loc, (0.0, 0.0, 0.0), "local_costmap")
+        beh = plugins.RECOVERY_BEHAVIORS.create(recovery.CLEAR_TYPE, dict(params), ctx, "reset")
+        beh.start((0.0, 0.0, 0.0))
+        beh.step((0.0, 0.0, 0.0))
+        # each obstacle layer's own cells (the master is redrawn only where layers changed)
+        return beh, g.layers[0].grid, loc.layers[0].grid
+
+    # The default names miss obstacle_layer: nothing cleared, and a note says why.
+    beh, g, loc = build({"reset_distance": 1.0})
+    assert beh.cleared == [] and g.cost_at(-3.0, 0.0) == cv.LETHAL_OBSTACLE
+    assert any("it will clear nothing there" in n and "global_costmap" in n for n in beh.notes)
+    beh, g, loc = build({"reset_distance": 1.0}, ("obstacles", "obstacles"))
+    assert beh.cleared == ["obstacles", "obstacles"] and beh.notes == []
+    # invert_area_to_clear: inside the square cleared, outside kept.
+    beh, g, loc = build({"reset_distance": 1.0, "layer_names": ["obstacle_layer"], "invert_area_to_clear": True})
+    assert g.cost_at(0.2, 0.0) == cv.FREE_SPACE and g.cost_at(-3.0, 0.0) == cv.LETHAL_OBSTACLE
+    # affected_maps: only the one named; a wrong value warns as the real one and clears both.
+    beh, g, loc = build({"reset_distance": 1.0, "layer_names": ["obstacle_layer"], "affected_maps": "local"})
+    assert g.cost_at(-3.0, 0.0) == cv.LETHAL_OBSTACLE and loc.cost_at(-3.0, 0.0) == cv.FREE_SPACE
+    beh, g, loc = build({"reset_distance": 1.0, "layer_names": ["obstacle_layer"], "affected_maps": "global"})
+    assert g.cost_at(-3.0, 0.0) == cv.FREE_SPACE and loc.cost_at(-3.0, 0.0) == cv.LETHAL_OBSTACLE
+    beh, g, loc = build({"reset_distance": 1.0, "layer_names": ["obstacle_layer"], "affected_maps": "al"})
+    assert g.cost_at(-3.0, 0.0) == cv.FREE_SPACE and loc.cost_at(-3.0, 0.0) == cv.FREE_SPACE
+    assert any("Wrong value for affected_maps parameter: 'al'" in n for n in beh.notes)
+    with pytest.raises(PluginError, match="'invert_area_to_clear' must be bool"):
+        build({"invert_area_to_clear": "yes"})
+
+
+def test_clear_costmap_force_updating_updates_at_once(footprint, costmap_handle):
+    updated = []
+
+    class Handle(costmap_handle):
+        def update(self):
+            updated.append(self.name)
+
+    g = _lethal_obstacle_costmap(footprint)
+    for force, expect in ((False, []), (True, ["global_costmap"])):
+        updated.clear()
+        rec = ClearCostmapRecovery(Handle(g, (0.0, 0.0, 0.0), "global_costmap"), None, reset_distance=1.0,
+                                   layer_names=("obstacle_layer",), force_updating=force)
+        rec.step((0.0, 0.0, 0.0))
+        assert updated == expect
 
 
 def test_planner_notes_name_unused_and_deprecated_parameters(footprint):
@@ -270,3 +337,17 @@ def test_dwa_reads_no_old_name_as_dwa_local_planner(footprint):
     assert "DWAPlannerROS: 'acc_lim_th' is not a parameter this node reads; ignored" in notes
     assert "'max_rot_vel' is not a parameter" not in notes        # the real warning, not ours
     assert "DWAPlannerROS: 'vy_samples' 0 raised to 1" in notes
+
+
+def test_course_config_default_recoveries_clear_its_obstacle_layer(footprint, costmap_handle):
+    """The course's costmaps name their obstacle layer obstacle_layer, which the real
+    default layer_names ([obstacles]) misses; move_base_params.yaml names it for both
+    default resets, so they clear it and say nothing at start."""
+    p = load_move_base_params(os.path.join(os.path.dirname(__file__), "..", "config"))
+    g = _lethal_obstacle_costmap(footprint)
+    pl = MoveBasePlugins(p, costmap_handle(g, (0.0, 0.0, 0.0), "global_costmap"),
+                         costmap_handle(_lethal_obstacle_costmap(footprint), (0.0, 0.0, 0.0), "local_costmap"))
+    resets = {n: b for n, b in pl.recoveries if isinstance(b, ClearCostmapRecovery)}
+    assert sorted(resets) == ["aggressive_reset", "conservative_reset"]
+    assert all(b.layer_names == ("obstacle_layer",) for b in resets.values())
+    assert not [n for n in pl.notes if "clear nothing" in n]

@@ -55,8 +55,8 @@ def test_conservative_and_aggressive_reset(footprint):
     lc = _with_obstacles(footprint)
     assert lc.master.cost_at(0.98, 0.0) == cv.LETHAL_OBSTACLE
     assert lc.master.cost_at(-4.0, 0.0) == cv.LETHAL_OBSTACLE
-    assert clear_costmap_layers(lc, (0.0, 0.0), 3.0) == ["obstacle_layer"]  # the default layer_names
-    assert clear_costmap_layers(lc, (0.0, 0.0), 3.0, layer_names=("nothing",)) == []
+    assert clear_costmap_layers(lc, (0.0, 0.0), 3.0) == []   # the default layer_names: [obstacles]
+    assert clear_costmap_layers(lc, (0.0, 0.0), 3.0, ("obstacle_layer",)) == ["obstacle_layer"]
     lc.update_map(0.0, 0.0, 0.0)
     assert lc.master.cost_at(0.98, 0.0) == cv.LETHAL_OBSTACLE     # inside the square: kept
     assert lc.master.cost_at(-4.0, 0.0) == cv.FREE_SPACE          # outside: cleared
@@ -212,7 +212,7 @@ def test_recovery_behaviors_list(footprint):
     assert [n for n, _ in seq] == ["conservative_reset", "back_up", "rotate_recovery", "aggressive_reset"]
     (_, cons), (_, back), (_, rot), (_, aggr) = seq
     assert isinstance(cons, ClearCostmapRecovery) and cons.reset_distance == 3.0      # clear_costmap_recovery's default
-    assert aggr.reset_distance == 1.84 and cons.layer_names == ("obstacle_layer",)
+    assert aggr.reset_distance == 1.84 and cons.layer_names == ("obstacles",)      # the real default
     assert back.backup_dist == 0.2 and back.frequency == 10.0                      # its namespace wins
     assert rot.max_rotational_vel == 0.8
     for bad, match in [([], "non-empty list"), ("back_up", "non-empty list"),

@@ -84,7 +84,8 @@ class PluginContext:
     """What a plugin may be built with besides its parameters.
 
     global_costmap, local_costmap: costmap handles (``layered``: a LayeredCostmap,
-    ``lock``, ``get_robot_pose()`` -> (x, y, yaw) or None), or None; footprint: the local
+    ``lock``, ``get_robot_pose()`` -> (x, y, yaw) or None, optionally ``update()``: one
+    update at the robot's pose now), or None; footprint: the local
     costmap's Footprint (controller and recoveries); controller_frequency [Hz];
     local_limits: the local planner's rotation and acceleration limits for the recoveries
     (acc_lim_th [rad/s^2], max_rotational_vel and min_in_place_rotational_vel [rad/s],

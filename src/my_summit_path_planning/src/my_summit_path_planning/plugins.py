@@ -111,9 +111,21 @@ def _clear_costmap(params, ctx, where):
     if not all(isinstance(n, str) for n in names):
         raise PluginError(f"{where}: 'layer_names' must be a list of strings, got {names!r}")
     force = _param(params, "force_clear_all", bool, False, where)
-    beh = recovery.ClearCostmapRecovery(ctx.global_costmap, ctx.local_costmap, reset, tuple(names), force)
-    beh.notes = [unread_note(f"~{where}", k, ("reset_distance", "layer_names", "force_clear_all"))
-                 for k in sorted(params)]
+    invert = _param(params, "invert_area_to_clear", bool, False, where)
+    force_updating = _param(params, "force_updating", bool, False, where)
+    affected = params.pop("affected_maps", "both")
+    notes = []
+    if affected not in recovery.AFFECTED_MAPS:
+        # the real node's warning, and its fallback
+        notes.append(f"~{where}/affected_maps: Wrong value for affected_maps parameter: '{affected}'; "
+                     f"valid values are 'local', 'global' or 'both'; defaulting to 'both'")
+        affected = "both"
+    beh = recovery.ClearCostmapRecovery(ctx.global_costmap, ctx.local_costmap, reset, tuple(names), force,
+                                        invert, affected, force_updating)
+    read = ("reset_distance", "layer_names", "force_clear_all", "invert_area_to_clear", "affected_maps",
+            "force_updating")
+    beh.notes = notes + [unread_note(f"~{where}", k, read) for k in sorted(params)] \
+        + [f"~{where}: {n}" for n in beh.clearing_notes()]
     return beh
 
 
@@ -170,10 +182,10 @@ def recovery_sequence(spec, namespaces, ctx):
     """move_base's recovery_behaviors list [{name, type}, ...] -> [(name, behaviour), ...].
 
     namespaces: {name: {param: value}}, each behaviour's own namespace (~<name>/...);
-    clear_costmap_recovery reads reset_distance (3.0 m), layer_names ([obstacle_layer])
-    and force_clear_all (false; ours); rotate_recovery, back_up and turn_around start from
-    the local planner's limits and move_base's controller_frequency (ctx), overridden by
-    their namespace. ValueError naming the entry when the list is malformed, a name
+    clear_costmap_recovery reads reset_distance (3.0 m), layer_names ([obstacles]),
+    invert_area_to_clear, affected_maps, force_updating and force_clear_all (false;
+    ours); rotate_recovery, back_up and turn_around start from the local planner's limits
+    and move_base's controller_frequency (ctx), overridden by their namespace. ValueError naming the entry when the list is malformed, a name
     repeats, a type is unknown or a parameter is bad (move_base then logs it and uses its
     default sequence).
     """

@@ -27,7 +27,8 @@ import numpy as np
 
 from .dwa import ClearancePolicy, footprint_checks, footprint_clearance, obstacle_distance, wrap_angle
 
-DEFAULT_LAYER_NAMES = ("obstacle_layer",)  # clear_costmap_recovery's default layer_names
+DEFAULT_LAYER_NAMES = ("obstacles",)      # clear_costmap_recovery's default layer_names
+AFFECTED_MAPS = ("local", "global", "both")  # clear_costmap_recovery's affected_maps values
 AGGRESSIVE_RADIUS_FACTOR = 4.0            # move_base: aggressive reset_distance = 4 x circumscribed radius
 FULL_TURN = 2.0 * math.pi                 # [rad]
 
@@ -43,13 +44,15 @@ class RecoveryStep:
 
 
 def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_LAYER_NAMES,
-                         force_clear_all=False):
-    """Clear obstacle layers outside a reset_distance [m] square around the robot.
+                         force_clear_all=False, invert=False):
+    """Clear obstacle layers outside (invert: inside) a reset_distance [m] square centred
+    on the robot.
 
     layered: LayeredCostmap; robot_xy (x, y) [m] in its frame; layer_names: the layers
-    to clear (missing names are skipped, as clear_costmap_recovery warns and goes on);
-    force_clear_all: clear the whole layer (reset_distance ignored). Returns the names
-    of the layers cleared. The master grid is rebuilt at the next update_map.
+    to clear, by the name after the last "/" (missing names are skipped, as
+    clear_costmap_recovery goes on); force_clear_all: clear the whole layer
+    (reset_distance ignored; ours). Returns the names of the layers cleared. The master
+    grid is rebuilt at the next update_map.
     """
     cleared = []
     m = layered.master
@@ -57,12 +60,13 @@ def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_
     x0, y0 = m.world_to_map_no_bounds(robot_xy[0] - half, robot_xy[1] - half)
     x1, y1 = m.world_to_map_no_bounds(robot_xy[0] + half, robot_xy[1] + half)
     for layer in layered.layers:
-        if layer.name not in layer_names or not hasattr(layer, "clear_window"):
+        if layer.name.rsplit("/", 1)[-1] not in layer_names or not hasattr(layer, "clear_window"):
             continue
         if force_clear_all:
             layer.reset()
         else:
-            layer.clear_window((x0, y0, x1 + 1, y1 + 1), invert=True)
+            # clear_window's invert clears outside the window: the recovery's default
+            layer.clear_window((x0, y0, x1 + 1, y1 + 1), invert=not invert)
         cleared.append(layer.name)
     # The master is redrawn whole at the next update_map, so cleared cells vanish.
     layered.force_full_update = True
@@ -70,22 +74,44 @@ def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_
 
 
 class ClearCostmapRecovery:
-    """clear_costmap_recovery: clear the global and local costmaps' obstacle layers outside
-    a reset_distance [m] square around the robot, in one step.
+    """clear_costmap_recovery: clear the costmaps' obstacle layers outside a
+    reset_distance [m] square centred on the robot, in one step.
 
     global_costmap, local_costmap: costmap handles (``layered``, ``lock``,
-    ``get_robot_pose()``; see nav_core.PluginContext) or None; each is cleared around the
-    robot's pose in its own frame. layer_names: the layers to clear; force_clear_all: clear
-    them whole (ours).
+    ``get_robot_pose()``, ``update()``; see nav_core.PluginContext) or None; each is
+    cleared around the robot's pose in its own frame. The real node's parameters:
+    layer_names (default [obstacles]: a layer named otherwise, such as the course's
+    obstacle_layer, is not cleared unless named), invert_area_to_clear (clear inside the
+    square instead), affected_maps ("local", "global" or "both"), force_updating (rebuild
+    the costmap at once instead of at its next update); ours: force_clear_all (clear the
+    layers whole).
     """
 
     def __init__(self, global_costmap, local_costmap, reset_distance=3.0,
-                 layer_names=DEFAULT_LAYER_NAMES, force_clear_all=False):
-        self.costmaps = [c for c in (global_costmap, local_costmap) if c is not None]
+                 layer_names=DEFAULT_LAYER_NAMES, force_clear_all=False, invert_area_to_clear=False,
+                 affected_maps="both", force_updating=False):
+        chosen = {"global": (global_costmap,), "local": (local_costmap,)}.get(
+            affected_maps, (global_costmap, local_costmap))
+        self.costmaps = [c for c in chosen if c is not None]
         self.reset_distance = reset_distance
         self.layer_names = tuple(layer_names)
         self.force_clear_all = force_clear_all
+        self.invert = invert_area_to_clear
+        self.force_updating = force_updating
         self.cleared = []
+
+    def clearing_notes(self):
+        """Why this behaviour would clear nothing in a costmap (said once at start): the
+        layer_names default, [obstacles], misses layers named otherwise, in the real node
+        too, which only logs the names it will clear."""
+        out = []
+        for c in self.costmaps:
+            present = [l.name for l in c.layered.layers]
+            if not any(n.rsplit("/", 1)[-1] in self.layer_names for n in present):
+                out.append(f"clear_costmap_recovery clears the layers named {list(self.layer_names)} "
+                           f"(layer_names), and {getattr(c, 'name', 'a costmap')} has none "
+                           f"({', '.join(present)}): it will clear nothing there")
+        return out
 
     def start(self, pose, trail=()):
         """Nothing to prepare: the clearing is one step."""
@@ -100,7 +126,9 @@ class ClearCostmapRecovery:
                 continue
             with c.lock:
                 self.cleared += clear_costmap_layers(c.layered, robot[:2], self.reset_distance,
-                                                     self.layer_names, self.force_clear_all)
+                                                     self.layer_names, self.force_clear_all, self.invert)
+            if self.force_updating and hasattr(c, "update"):
+                c.update()
         reason = f"clear costmap: no robot pose in {', '.join(missed)}: not cleared" if missed else ""
         return RecoveryStep(done=True, reason=reason)
 
