@@ -142,7 +142,10 @@ class ReconfigureTPR(unittest.TestCase):
         rows, cols = np.nonzero((occ >= 40) & (occ <= 90))   # costmap cost ~100..230
         xs, ys = ox + (cols + 0.5) * res, oy + (rows + 0.5) * res
         pose = truth.pose
-        k = int(np.argmin(np.hypot(xs - pose[0], ys - pose[1])))
+        # the nearest one more than 1 m away: ~make_plan plans as if the square of the
+        # circumscribed radius around the robot were free (make_plan_clear_costmap)
+        d = np.hypot(xs - pose[0], ys - pose[1])
+        k = int(np.argmin(np.where(d > 1.0, d, np.inf)))
         goal = (float(xs[k]), float(ys[k]))
         rospy.wait_for_service("/move_base/make_plan", 30.0)
         make_plan = rospy.ServiceProxy("/move_base/make_plan", GetPlan)

@@ -10,7 +10,8 @@ import pytest
 from my_summit_path_planning.costmap import Costmap2D
 from my_summit_path_planning.move_base_core import (CLEARING, CONTROLLING, PLANNING, RECOVERY_FAILED, GoalError,
                                                     MoveBaseCore, RateWatch, accept_goal, blocked_by_map,
-                                                    check_goal_cell, check_goal_pose, wait_for_plan_request)
+                                                    check_goal_cell, check_goal_pose, service_plan,
+                                                    wait_for_plan_request)
 from my_summit_path_planning.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from my_summit_path_planning.params import MoveBaseConfig
 from my_summit_path_planning.recovery import RecoveryStep
@@ -548,3 +549,30 @@ def test_goal_reached_in_the_map_while_the_localization_corrects(local_type):
     g = compose(inverse(g2l), local)
     tol = plugins.make_local_planner().config.xy_goal_tolerance
     assert math.hypot(g[0] - goal[0], g[1] - goal[1]) <= tol + 0.02
+
+
+
+def test_make_plan_service_clears_around_the_robot_and_appends_an_unreachable_goal():
+    """move_base's ~make_plan (planService): with make_plan_clear_costmap it plans as if the
+    square of the circumscribed radius around the robot were free (a robot whose own cell
+    is marked can still get a plan), and with make_plan_add_unreachable_goal a path that
+    ends at a free cell within tolerance gets the goal itself appended. Ours took neither
+    (both are true by default in move_base)."""
+    from my_summit_path_planning.navfn import NavFn, NavfnConfig
+    cm = Costmap2D(60, 40, 0.05)
+    cm.data[:, 40] = LETHAL_OBSTACLE                     # a wall at x 2.0-2.05 m
+    cm.data[18:22, 8:12] = LETHAL_OBSTACLE               # marks on the robot at (0.5, 1.0)
+    before = cm.data.copy()
+    planner = NavFn(NavfnConfig(allow_unknown=True, default_tolerance=0.0))
+    robot = (0.5, 1.0, 0.0)
+    with pytest.raises(GoalError):
+        service_plan(planner, cm, robot, robot, (1.5, 1.0, 0.0), 0.0, clearing_radius=None)
+    path = service_plan(planner, cm, robot, robot, (1.5, 1.0, 0.0), 0.0, clearing_radius=0.46)
+    assert np.allclose(path[-1], (1.5, 1.0), atol=0.03)
+    np.testing.assert_array_equal(cm.data, before)       # the caller's costmap is left as it was
+    # A goal just inside the wall: planned to free space within 0.3 m, then the goal appended.
+    goal = (2.02, 1.0, 0.0)
+    path = service_plan(planner, cm, robot, (1.0, 1.0, 0.0), goal, 0.3, clearing_radius=0.46)
+    assert tuple(path[-1]) == goal[:2] and 0.0 < math.hypot(*(path[-2] - goal[:2])) <= 0.3 + 1e-9
+    short = service_plan(planner, cm, robot, (1.0, 1.0, 0.0), goal, 0.3, 0.46, add_unreachable_goal=False)
+    assert len(short) == len(path) - 1 and np.allclose(short, path[:-1])

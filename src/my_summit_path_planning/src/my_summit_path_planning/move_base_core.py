@@ -22,9 +22,10 @@ MoveBaseCore is pure: time comes in as seconds, poses as (x, y, yaw), plugins (n
 shapes) are passed in, and each control cycle returns what to publish and log. It is not
 thread-safe: the node calls it under one lock from its control loop and planner thread.
 Also here: the checks of a goal before it is accepted (accept_goal; GoalError with the
-abort text).
+abort text), and the ~make_plan service's planning (service_plan).
 """
 import collections
+import copy
 import math
 from dataclasses import dataclass, field
 
@@ -32,7 +33,7 @@ import numpy as np
 
 from summit_nav_common.geometry import compose, inverse
 
-from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+from .cost_values import FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from .dwa import LatencyMeter
 
 PLANNING, CONTROLLING, CLEARING = "PLANNING", "CONTROLLING", "CLEARING"
@@ -144,6 +145,45 @@ def blocked_by_map(static_grids, goal, inscribed_radius, allow_unknown):
         if np.any(np.hypot(cx - goal[0], cy - goal[1]) <= inscribed_radius):
             return True
     return False
+
+
+def service_plan(planner, costmap, robot, start, goal, tolerance, clearing_radius=None,
+                 add_unreachable_goal=True):
+    """move_base's ~make_plan: the path (N, 2) [m] the global planner gives from start to
+    goal (x, y, yaw) on costmap (a Costmap2D, left unchanged), within tolerance [m].
+
+    clearing_radius [m] (make_plan_clear_costmap; move_base: the circumscribed radius):
+    plan as if the square of half-side clearing_radius around robot (x, y, yaw) were free
+    space, as move_base clears it before planning; None: plan on the costmap as it is.
+    (The real move_base frees that square in its live costmaps, where it can outlast the
+    request; here it is freed in a copy.) add_unreachable_goal
+    (make_plan_add_unreachable_goal): a path that ends short of the goal (at a free cell
+    within tolerance) gets the goal appended, "in case the local planner can get you
+    there". GoalError with the planner's reason when there is no path.
+    """
+    if clearing_radius is not None and robot is not None:
+        costmap = _with_free_square(costmap, robot, clearing_radius)
+    r = planner.make_plan(costmap, start, goal, tolerance)
+    if not r.ok:
+        raise GoalError(r.reason)
+    path = np.asarray(r.path, dtype=np.float64).reshape(-1, 2)
+    if add_unreachable_goal and len(path) and math.hypot(path[-1, 0] - goal[0], path[-1, 1] - goal[1]) > 1e-6:
+        path = np.vstack([path, [goal[0], goal[1]]])
+    return path
+
+
+def _with_free_square(costmap, centre, half_side):
+    """A copy of costmap with the cells of the square of half_side [m] around centre
+    (x, y) set to free space (move_base's clearCostmapWindows)."""
+    out = copy.copy(costmap)
+    out.data = costmap.data.copy()
+    x0, y0 = costmap.world_to_map_no_bounds(centre[0] - half_side, centre[1] - half_side)
+    x1, y1 = costmap.world_to_map_no_bounds(centre[0] + half_side, centre[1] + half_side)
+    x0, y0 = max(0, x0), max(0, y0)
+    x1, y1 = min(costmap.size_x - 1, x1), min(costmap.size_y - 1, y1)
+    if x1 >= x0 and y1 >= y0:
+        out.data[y0:y1 + 1, x0:x1 + 1] = FREE_SPACE
+    return out
 
 
 def accept_goal(costmap, static_grids, goal, allow_unknown, tolerance, inscribed_radius, frame="map"):

@@ -64,8 +64,8 @@ class MoveBaseConfig:
     oscillation_distance: float = 0.5      # [m]
     planner_frequency: float = 0.0         # [Hz] 0 = plan only on new goals
     max_planning_retries: int = -1         # -1 = unlimited
-    make_plan_clear_costmap: bool = True   # accepted; ~make_plan plans on the costmap as it is (ignored)
-    make_plan_add_unreachable_goal: bool = True  # accepted; ~make_plan returns no plan instead (ignored)
+    make_plan_clear_costmap: bool = True   # ~make_plan plans as if the robot's circumscribed square were free
+    make_plan_add_unreachable_goal: bool = True  # ~make_plan appends the goal to a path that ends short of it
     # ours: a folder; each time the local planner finds no valid command for
     # controller_patience, the controller's inputs (local costmap, pose, velocity, planner
     # state) are pickled there for an offline replay (at most DEBUG_DUMPS per run). Empty: off.
@@ -74,8 +74,7 @@ class MoveBaseConfig:
 
 # move_base parameters the real node reads and this one accepts without acting on them:
 # each with the value that matches what this node does (another value is logged as ignored).
-IGNORED_MOVE_BASE_PARAMS = {"shutdown_costmaps": False, "make_plan_clear_costmap": False,
-                            "make_plan_add_unreachable_goal": False}
+IGNORED_MOVE_BASE_PARAMS = {"shutdown_costmaps": False}
 
 
 @dataclass
