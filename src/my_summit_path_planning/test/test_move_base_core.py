@@ -555,9 +555,11 @@ def test_goal_reached_in_the_map_while_the_localization_corrects(local_type):
 def test_make_plan_service_clears_around_the_robot_and_appends_an_unreachable_goal():
     """move_base's ~make_plan (planService): with make_plan_clear_costmap it plans as if the
     square of the circumscribed radius around the robot were free (a robot whose own cell
-    is marked can still get a plan), and with make_plan_add_unreachable_goal a path that
-    ends at a free cell within tolerance gets the goal itself appended. Ours took neither
-    (both are true by default in move_base)."""
+    is marked can still get a plan); when the planner finds no plan to the goal itself,
+    the request's tolerance gives one to a free cell near it, and with
+    make_plan_add_unreachable_goal the goal is appended to that path (not to a path the
+    planner shortened by its own default_tolerance). Ours took neither (both are true by
+    default in move_base)."""
     from my_summit_path_planning.navfn import NavFn, NavfnConfig
     cm = Costmap2D(60, 40, 0.05)
     cm.data[:, 40] = LETHAL_OBSTACLE                     # a wall at x 2.0-2.05 m
@@ -570,9 +572,16 @@ def test_make_plan_service_clears_around_the_robot_and_appends_an_unreachable_go
     path = service_plan(planner, cm, robot, robot, (1.5, 1.0, 0.0), 0.0, clearing_radius=0.46)
     assert np.allclose(path[-1], (1.5, 1.0), atol=0.03)
     np.testing.assert_array_equal(cm.data, before)       # the caller's costmap is left as it was
-    # A goal just inside the wall: planned to free space within 0.3 m, then the goal appended.
-    goal = (2.02, 1.0, 0.0)
-    path = service_plan(planner, cm, robot, (1.0, 1.0, 0.0), goal, 0.3, clearing_radius=0.46)
+    # A goal just inside the wall: no plan at tolerance 0; within 0.3 m, a plan to free
+    # space with the goal appended.
+    goal, start = (2.02, 1.0, 0.0), (1.0, 1.0, 0.0)
+    with pytest.raises(GoalError):
+        service_plan(planner, cm, robot, start, goal, 0.0, 0.46)
+    path = service_plan(planner, cm, robot, start, goal, 0.3, 0.46)
     assert tuple(path[-1]) == goal[:2] and 0.0 < math.hypot(*(path[-2] - goal[:2])) <= 0.3 + 1e-9
-    short = service_plan(planner, cm, robot, (1.0, 1.0, 0.0), goal, 0.3, 0.46, add_unreachable_goal=False)
+    short = service_plan(planner, cm, robot, start, goal, 0.3, 0.46, add_unreachable_goal=False)
     assert len(short) == len(path) - 1 and np.allclose(short, path[:-1])
+    # The planner's own default_tolerance finds the free cell: its path, nothing appended.
+    own = service_plan(NavFn(NavfnConfig(allow_unknown=True, default_tolerance=0.3)), cm, robot, start, goal,
+                       0.0, 0.46)
+    assert 0.0 < math.hypot(*(own[-1] - goal[:2])) <= 0.3 + 1e-9

@@ -149,27 +149,33 @@ def blocked_by_map(static_grids, goal, inscribed_radius, allow_unknown):
 
 def service_plan(planner, costmap, robot, start, goal, tolerance, clearing_radius=None,
                  add_unreachable_goal=True):
-    """move_base's ~make_plan: the path (N, 2) [m] the global planner gives from start to
-    goal (x, y, yaw) on costmap (a Costmap2D, left unchanged), within tolerance [m].
+    """move_base's ~make_plan (planService): the path (N, 2) [m] from start to goal
+    (x, y, yaw) on costmap (a Costmap2D, left unchanged).
 
-    clearing_radius [m] (make_plan_clear_costmap; move_base: the circumscribed radius):
-    plan as if the square of half-side clearing_radius around robot (x, y, yaw) were free
-    space, as move_base clears it before planning; None: plan on the costmap as it is.
-    (The real move_base frees that square in its live costmaps, where it can outlast the
-    request; here it is freed in a copy.) add_unreachable_goal
-    (make_plan_add_unreachable_goal): a path that ends short of the goal (at a free cell
-    within tolerance) gets the goal appended, "in case the local planner can get you
-    there". GoalError with the planner's reason when there is no path.
+    As move_base: a plan to the goal as the planner makes it (its own default_tolerance);
+    failing that, with tolerance [m] > 0 (the request's), a plan to a free cell within
+    tolerance of the goal (ours: the planner's nearest-cell search, where move_base tries
+    offsets on a grid of 3 cells), with the goal itself appended when
+    add_unreachable_goal (make_plan_add_unreachable_goal), "in case the local planner can
+    get you there". clearing_radius [m] (make_plan_clear_costmap; move_base: the
+    circumscribed radius): plan as if the square of half-side clearing_radius around robot
+    (x, y, yaw) were free space; the real move_base frees it in its live costmaps, where
+    it can outlast the request, ours in a copy. None: plan on the costmap as it is.
+    GoalError with the planner's reason when there is no path.
     """
     if clearing_radius is not None and robot is not None:
         costmap = _with_free_square(costmap, robot, clearing_radius)
-    r = planner.make_plan(costmap, start, goal, tolerance)
-    if not r.ok:
-        raise GoalError(r.reason)
-    path = np.asarray(r.path, dtype=np.float64).reshape(-1, 2)
-    if add_unreachable_goal and len(path) and math.hypot(path[-1, 0] - goal[0], path[-1, 1] - goal[1]) > 1e-6:
-        path = np.vstack([path, [goal[0], goal[1]]])
-    return path
+    r = planner.make_plan(costmap, start, goal)
+    if r.ok:
+        return np.asarray(r.path, dtype=np.float64).reshape(-1, 2)
+    if tolerance > 0.0:
+        near = planner.make_plan(costmap, start, goal, tolerance)
+        if near.ok:
+            path = np.asarray(near.path, dtype=np.float64).reshape(-1, 2)
+            if add_unreachable_goal:
+                path = np.vstack([path, [goal[0], goal[1]]])
+            return path
+    raise GoalError(r.reason)
 
 
 def _with_free_square(costmap, centre, half_side):
