@@ -16,6 +16,7 @@ stuck) it stops, says so, and saves the map.
 
   action client of move_base (move_base_msgs/MoveBaseAction)
   sub   ~costmap_topic (default move_base/global_costmap/costmap, nav_msgs/OccupancyGrid)
+        and its _updates (map_msgs/OccupancyGridUpdate), as move_base publishes them
   sub   map (nav_msgs/OccupancyGrid): the SLAM map, saved at the end
   pub   ~frontiers (geometry_msgs/PoseArray): the frontier goals, cheapest first
   pub   ~done (std_msgs/Bool, latched): true once exploration is over
@@ -50,6 +51,7 @@ from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Bool, String
 
 from summit_nav_common.geometry import quaternion_to_yaw
+from summit_nav_common.ros.costmap_client import CostmapClient
 from my_summit_navigation import frontiers as fr
 from my_summit_navigation.exploration import Explore
 
@@ -72,7 +74,6 @@ class ExploreNode:
         self.save_base = rospy.get_param("~save_map", os.path.join(rospkg.get_ros_home(), "explored_map"))
         self.max_time = float(rospy.get_param("~max_time", 0.0))
         self.lock = threading.Lock()   # the Explore, shared with the action client's done callback
-        self.costmap = None
         self.map_msg = None
         self.tf = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf)
@@ -80,18 +81,13 @@ class ExploreNode:
         # tracks one goal, and a late end of the previous one can mark the next one done)
         self.client = actionlib.ActionClient("move_base", MoveBaseAction)
         self.goal_handle = None   # the active goal's (kept: the client holds it weakly)
-        rospy.Subscriber(rospy.get_param("~costmap_topic", "move_base/global_costmap/costmap"),
-                         numpy_msg(OccupancyGrid), self._on_costmap, queue_size=1, buff_size=2 ** 25)
+        self.costmap = CostmapClient(rospy.get_param("~costmap_topic", "move_base/global_costmap/costmap"))
         rospy.Subscriber("map", numpy_msg(OccupancyGrid), lambda m: setattr(self, "map_msg", m),
                          queue_size=1, buff_size=2 ** 25)
         self.frontier_pub = rospy.Publisher("~frontiers", PoseArray, queue_size=1, latch=True)
         self.done_pub = rospy.Publisher("~done", Bool, queue_size=1, latch=True)
         self.summary_pub = rospy.Publisher("~summary", String, queue_size=1, latch=True)
         self.done_pub.publish(Bool(False))
-
-    def _on_costmap(self, msg):
-        with self.lock:
-            self.costmap = msg
 
     def _on_transition(self, number, handle):
         if handle.get_comm_state() == actionlib.CommState.DONE:
@@ -105,28 +101,27 @@ class ExploreNode:
 
     def step(self):
         """One planning round; returns the reason exploration is over, or None."""
-        with self.lock:
-            cm = self.costmap
+        cm = self.costmap.snapshot()
         if cm is None:
             rospy.loginfo_throttle(10.0, "explore: waiting for the global costmap")
             return None
+        header, info, data = cm
         try:
-            pose = self.robot_pose(cm.header.frame_id)
+            pose = self.robot_pose(header.frame_id)
         except tf2_ros.TransformException as e:
             rospy.logwarn_throttle(10.0, f"explore: no robot pose: {e}")
             return None
-        info = cm.info
-        grid = np.asarray(cm.data, np.int16).reshape(info.height, info.width)
+        grid = data.astype(np.int16)
         with self.lock:
             r = self.explore.step(rospy.Time.now().to_sec(), pose, grid, info.resolution,
-                                  (info.origin.position.x, info.origin.position.y), cm.header.stamp.to_sec())
+                                  (info.origin.position.x, info.origin.position.y), header.stamp.to_sec())
         for level, text in r.logs:
             (rospy.logwarn if level == "warn" else rospy.loginfo)(f"explore: {text}")
         if r.cancel and self.goal_handle is not None:
             self.goal_handle.cancel()
         if r.frontiers is not None:
             pa = PoseArray()
-            pa.header = cm.header
+            pa.header = header
             for f in r.frontiers:
                 p = Pose()
                 p.position.x, p.position.y, p.orientation.w = f.goal[0], f.goal[1], 1.0
@@ -134,7 +129,7 @@ class ExploreNode:
             self.frontier_pub.publish(pa)
         if r.send is not None:
             goal = MoveBaseGoal()
-            goal.target_pose.header.frame_id = cm.header.frame_id
+            goal.target_pose.header.frame_id = header.frame_id
             goal.target_pose.header.stamp = rospy.Time.now()
             goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = r.send.goal
             o = goal.target_pose.pose.orientation

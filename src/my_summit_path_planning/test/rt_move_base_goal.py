@@ -6,7 +6,7 @@ within ~max_sim_time, the robot stand within the DWA goal tolerances of the goal
 ground truth (in the map frame; plus a margin for amcl's own error), with zero
 collisions; on the way the action gives feedback and move_base publishes its global
 plan, the local plan, the current goal and both costmaps (the costmaps matching the map's
-geometry).
+geometry; the global one's changes on costmap_updates).
 """
 import math
 import sys
@@ -14,6 +14,7 @@ import unittest
 
 import rospy
 import rostest
+from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Path
 from geometry_msgs.msg import PolygonStamped, PoseStamped
 
@@ -37,6 +38,7 @@ class MoveBaseGoal(unittest.TestCase):
         plan = lu.Latest("/move_base/NavfnROS/plan", Path)
         local_plan = lu.Latest("/move_base/DWAPlannerROS/local_plan", Path)
         gcost = lu.Latest("/move_base/global_costmap/costmap", OccupancyGrid)
+        gupdates = lu.Latest("/move_base/global_costmap/costmap_updates", OccupancyGridUpdate)
         lcost = lu.Latest("/move_base/local_costmap/costmap", OccupancyGrid)
         foot = lu.Latest("/move_base/local_costmap/footprint", PolygonStamped)
         current_goal = lu.Latest("/move_base/current_goal", PoseStamped)
@@ -94,6 +96,11 @@ class MoveBaseGoal(unittest.TestCase):
         self.assertAlmostEqual(g.info.origin.position.x, m.info.origin.position.x, places=6)
         self.assertIn(100, g.data)     # lethal
         self.assertIn(99, g.data)      # inscribed
+        # the global grid is sent whole once; the laser's changes follow as windows of it
+        u = gupdates.wait()
+        self.assertEqual(u.header.frame_id, "map")
+        self.assertTrue(0 <= u.x and u.x + u.width <= g.info.width and 0 <= u.y and u.y + u.height <= g.info.height)
+        self.assertEqual(len(u.data), u.width * u.height)
         l = lcost.wait()
         self.assertEqual(l.header.frame_id, "odom")
         self.assertEqual((l.info.width, l.info.height), (140, 140))   # 7 m x 7 m at 0.05 m

@@ -20,8 +20,7 @@ import rospy
 import rostest
 from dynamic_reconfigure.client import Client
 from geometry_msgs.msg import Twist
-from nav_msgs.msg import OccupancyGrid
-from rospy.numpy_msg import numpy_msg
+from summit_nav_common.ros.costmap_client import CostmapClient
 
 sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
 import mbtest_util as mt  # noqa: E402
@@ -58,10 +57,11 @@ class Reconfigure(unittest.TestCase):
 
         counts = []
 
-        def on_costmap(msg):
-            counts.append(int(np.count_nonzero((np.asarray(msg.data) > 0) & (np.asarray(msg.data) < 99))))
-        rospy.Subscriber("/move_base/global_costmap/costmap", numpy_msg(OccupancyGrid), on_costmap,
-                         queue_size=1, buff_size=2 ** 24)
+        def on_costmap(client):
+            data = client.snapshot()[2]
+            counts.append(int(np.count_nonzero((data > 0) & (data < 99))))
+        # the whole grid once, then the redrawn windows on costmap_updates (costmap_2d's way)
+        CostmapClient("/move_base/global_costmap/costmap", on_costmap)
         lu.wait_for(lambda: len(counts) > 0, "the global costmap")
         before = counts[-1]
         infl = Client("/move_base/global_costmap/inflation_layer", timeout=30)

@@ -262,3 +262,60 @@ def test_bad_plugins_and_params(footprint):
                                     Costmap2D(5, 5, 0.1), footprint)
     with pytest.raises(CostmapError):
         ObstacleLayer("o", {"observation_sources": "s", "s": {"data_type": "Sonar"}})
+
+
+def test_costmap_publisher_sends_the_whole_grid_then_the_redrawn_windows():
+    """costmap_2d's Costmap2DPublisher: the whole grid first and when the grid moves or
+    changes size (or always, with always_send_full_costmap), else the union of the windows
+    redrawn since the last cycle, clipped to the grid; nothing when none was."""
+    from my_summit_path_planning.costmap import CostmapPublisher
+    m = Costmap2D(20, 10, 0.1)
+    pub = CostmapPublisher()
+    assert pub.next(m) == ("full", None)
+    assert pub.next(m) is None
+    pub.add_window((2, 3, 5, 6))
+    pub.add_window((4, 1, 7, 4))
+    pub.add_window((9, 9, 9, 12))          # empty: ignored
+    assert pub.next(m) == ("update", (2, 1, 7, 6))
+    assert pub.next(m) is None
+    pub.add_window((-3, 8, 25, 15))
+    assert pub.next(m) == ("update", (0, 8, 20, 10))
+    m.update_origin(0.5, 0.0)              # a rolling window moved
+    pub.add_window((0, 0, 2, 2))
+    assert pub.next(m) == ("full", None) and pub.next(m) is None
+    always = CostmapPublisher(always_send_full_costmap=True)
+    assert always.next(m) == always.next(m) == ("full", None)
+
+
+def test_costmap_updates_rebuild_the_published_grid(footprint):
+    """What a subscriber assembles from the whole grid and the updates (summit_nav_common's
+    apply_update, as rviz and explore_lite do) equals the costmap at every cycle, with an
+    obstacle that moves and a clear in between."""
+    from my_summit_path_planning.costmap import CostmapPublisher
+    from summit_nav_common.ros.costmap_client import apply_update
+    params = {"obstacle_layer": {"observation_sources": "scan", "scan": {"clearing": True},
+                                 "obstacle_range": 2.5, "raytrace_range": 3.0},
+              "inflation_layer": {"inflation_radius": 0.5}}
+    lc = LayeredCostmap.from_plugins([{"name": "obstacle_layer", "type": "costmap_2d::ObstacleLayer"},
+                                      {"name": "inflation_layer", "type": "costmap_2d::InflationLayer"}],
+                                     params, Costmap2D(120, 100, 0.05, -2.0, -2.5), footprint)
+    pub, seen, updates = CostmapPublisher(), None, 0
+    rng = np.random.default_rng(4)
+    for cycle in range(12):
+        ranges = np.full(9, rng.uniform(0.8, 2.2))
+        lc.layer("obstacle_layer").add_observation(scan_to_observation(ranges, -0.4, 0.1, 0.1, 30.0, (0.0, 0.0, 0.0)))
+        if cycle == 6:
+            lc.reset()
+            lc.force_full_update = True
+        pub.add_window(lc.update_map(0.0, 0.0, 0.0))
+        what = pub.next(lc.master)
+        now = cv.costs_to_occupancy(lc.master.data)
+        if what is not None and what[0] == "full":
+            seen = now.copy()
+        elif what is not None:
+            x0, y0, x1, y1 = what[1]
+            assert apply_update(seen, x0, y0, x1 - x0, y1 - y0, now[y0:y1, x0:x1].reshape(-1))
+            updates += 1
+        np.testing.assert_array_equal(seen, now)
+    assert updates == 11
+    assert not apply_update(seen, 110, 0, 20, 1, np.zeros(20))  # a window off the grid: nothing written

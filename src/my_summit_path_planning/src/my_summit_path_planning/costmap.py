@@ -485,3 +485,49 @@ class LayeredCostmap:
         for l in self.layers:
             l.reset()
         self.version += 1
+
+
+class CostmapPublisher:
+    """What a costmap sends at each publish cycle: costmap_2d's Costmap2DPublisher
+    (costmap_2d_publisher.cpp) without ROS.
+
+    The whole grid (on ``~costmap``) the first time, whenever the grid's size, resolution
+    or origin changed since the whole grid was last sent (a rolling window moves its
+    origin every cycle), or every time with always_send_full_costmap; otherwise the cell
+    window redrawn since the last cycle (the union of update_map's windows), as an
+    OccupancyGridUpdate on ``~costmap_updates``; nothing when no cell was redrawn. A new
+    subscriber is sent the whole grid at once, by the caller, to it alone.
+    """
+
+    def __init__(self, always_send_full_costmap=False):
+        self.always_full = bool(always_send_full_costmap)
+        self.sent_geometry = None   # (size_x, size_y, resolution, origin_x, origin_y) of the last whole grid
+        self.window = None          # (x0, y0, x1, y1) redrawn since the last cycle, x1 and y1 excluded
+
+    @staticmethod
+    def geometry(master):
+        return (master.size_x, master.size_y, master.resolution, master.origin_x, master.origin_y)
+
+    def add_window(self, window):
+        """Count a redrawn cell window (x0, y0, x1, y1) in the next update."""
+        x0, y0, x1, y1 = (int(v) for v in window)
+        if x1 <= x0 or y1 <= y0:
+            return
+        if self.window is not None:
+            a0, b0, a1, b1 = self.window
+            x0, y0, x1, y1 = min(x0, a0), min(y0, b0), max(x1, a1), max(y1, b1)
+        self.window = (x0, y0, x1, y1)
+
+    def next(self, master):
+        """("full", None), ("update", (x0, y0, x1, y1)) or None for this cycle."""
+        geometry = self.geometry(master)
+        if self.always_full or geometry != self.sent_geometry:
+            self.sent_geometry, out = geometry, ("full", None)
+        elif self.window is not None:
+            x0, y0, x1, y1 = self.window
+            window = (max(0, x0), max(0, y0), min(master.size_x, x1), min(master.size_y, y1))
+            out = ("update", window) if window[2] > window[0] and window[3] > window[1] else None
+        else:
+            out = None
+        self.window = None
+        return out
