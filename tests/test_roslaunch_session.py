@@ -29,13 +29,26 @@ CHILD = textwrap.dedent("""
         open({cleaned!r}, "w").close()   # stands for stopping the graph
 """)
 
-PARENT = textwrap.dedent("""
-    import sys
-    sys.path.insert(0, {tools!r})
-    from roslaunch_session import child_result, exit_on_sigterm
-    exit_on_sigterm()
-    child_result([sys.executable, {child!r}])
-""")
+PARENTS = {
+    # bench_slam_bag.py, bench_move_base_live.py
+    "child_result": textwrap.dedent("""
+        import sys
+        sys.path.insert(0, {tools!r})
+        from roslaunch_session import child_result, exit_on_sigterm
+        exit_on_sigterm()
+        child_result([sys.executable, {child!r}])
+    """),
+    # bench_amcl_node.py and bench_stack_cpu.py (profile_node.run_child): killing them left
+    # the run's roslaunch, amcl or move_base running (session 28)
+    "profile_node.run_child": textwrap.dedent("""
+        import sys
+        sys.path.insert(0, {tools!r})
+        import profile_node
+        from roslaunch_session import exit_on_sigterm
+        exit_on_sigterm()
+        profile_node.run_child([sys.executable, {child!r}], 0)
+    """),
+}
 
 
 def _wait_for(path, timeout=20.0):
@@ -45,12 +58,13 @@ def _wait_for(path, timeout=20.0):
         time.sleep(0.05)
 
 
-def test_killing_the_parent_lets_the_child_run_its_cleanup(tmp_path):
+@pytest.mark.parametrize("runner", sorted(PARENTS))
+def test_killing_the_parent_lets_the_child_run_its_cleanup(tmp_path, runner):
     ready, cleaned = str(tmp_path / "ready"), str(tmp_path / "cleaned")
     child = tmp_path / "child.py"
     child.write_text(CHILD.format(tools=TOOLS, ready=ready, cleaned=cleaned))
     parent = tmp_path / "parent.py"
-    parent.write_text(PARENT.format(tools=TOOLS, child=str(child)))
+    parent.write_text(PARENTS[runner].format(tools=TOOLS, child=str(child)))
     proc = subprocess.Popen([sys.executable, str(parent)])
     try:
         _wait_for(ready)

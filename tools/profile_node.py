@@ -66,14 +66,15 @@ def child_run(run_once, args, tmp_prefix, summary, limit=30):
 
 
 def run_child(cmd, index):
-    """Run one child_run process; returns its JSON result (its other output printed)."""
-    import subprocess
-    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    out = proc.stdout
+    """Run one child_run process; returns its JSON result (its other output printed).
+    Stopped (SIGTERM after roslaunch_session.exit_on_sigterm, Ctrl-C), the child is given
+    the time to stop the graph it started (roslaunch_session.run_child_process)."""
+    from roslaunch_session import run_child_process
+    returncode, out = run_child_process(cmd)
     start = out.rfind("\n{")
-    if proc.returncode != 0 or start < 0:
+    if returncode != 0 or start < 0:
         print(out)
-        raise RuntimeError(f"run {index} failed (exit {proc.returncode})")
+        raise RuntimeError(f"run {index} failed (exit {returncode})")
     print(out[:start])
     return json.loads(out[start + 1:])
 

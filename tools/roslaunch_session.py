@@ -213,12 +213,11 @@ def exit_on_sigterm():
     signal.signal(signal.SIGTERM, _exit)
 
 
-def child_result(cmd):
+def run_child_process(cmd):
     """Run cmd (a child run of a benchmark script: rospy starts once per process, so each
-    run has its own) to its end; -> (record, None) from its last print_result line, or
-    (None, what went wrong: its exit status and the tail of its output). Interrupted, the
-    child has CHILD_STOP_GRACE to stop what it started before it is killed: after Ctrl-C
-    (SIGINT reached it too, through the terminal's process group) it is only waited for;
+    run has its own) to its end; -> (exit status, its output). Interrupted, the child has
+    CHILD_STOP_GRACE to stop what it started before it is killed: after Ctrl-C (SIGINT
+    reached it too, through the terminal's process group) it is only waited for;
     otherwise (SIGTERM after exit_on_sigterm, an error) it gets SIGTERM first."""
     with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) as proc:
         try:
@@ -231,9 +230,16 @@ def child_result(cmd):
             except subprocess.TimeoutExpired:
                 proc.kill()
             raise
+    return proc.returncode, out
+
+
+def child_result(cmd):
+    """run_child_process(cmd) -> (record, None) from the child's last print_result line, or
+    (None, what went wrong: its exit status and the tail of its output)."""
+    returncode, out = run_child_process(cmd)
     lines = [line for line in out.splitlines() if line.startswith(RESULT_PREFIX)]
-    if proc.returncode != 0 or not lines:
-        return None, f"exit status {proc.returncode}:\n{out[-4000:]}"
+    if returncode != 0 or not lines:
+        return None, f"exit status {returncode}:\n{out[-4000:]}"
     return json.loads(lines[-1][len(RESULT_PREFIX):]), None
 
 

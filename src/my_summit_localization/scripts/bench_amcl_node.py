@@ -44,6 +44,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 sys.path.insert(0, os.path.join(WS, "tools"))
 import profile_node  # noqa: E402  (where a profile's time goes)
+import roslaunch_session  # noqa: E402
 
 TARGET_CPU_PER_SIM_S = 0.12   # [CPU s / simulated s]; the real amcl: 0.087
 REAL_AMCL_CPU_PER_SIM_S = 0.087
@@ -266,6 +267,7 @@ def main():
     ap.add_argument("--launch-arg", action="append", default=[], help="extra name:=value for the launch")
     ap.add_argument("--run-index", type=int, help=argparse.SUPPRESS)  # one run, in a child process
     args = ap.parse_args()
+    roslaunch_session.exit_on_sigterm()   # `kill PID` stops the runs' graphs too
     if args.profile:
         os.makedirs(args.profile, exist_ok=True)
     if args.run_index is not None:

@@ -50,6 +50,7 @@ WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 sys.path.insert(0, os.path.join(WS, "tools"))
 sys.path.insert(0, os.path.join(WS, "src", "my_summit_localization", "scripts"))
 import profile_node  # noqa: E402  (where a profile's time goes)
+import roslaunch_session  # noqa: E402
 
 TARGET_SUM_CPU_PER_SIM_S = 0.6           # issue 24: map_server + amcl + move_base while navigating
 REAL_CPU_PER_SIM_S = {"amcl": 0.094, "move_base": 0.41, "sum": 0.50}   # issue 24's C++ reference
@@ -218,6 +219,7 @@ def main():
     ap.add_argument("--print-goals", action="store_true", help="print the goals and exit")
     ap.add_argument("--run-index", type=int, help=argparse.SUPPRESS)   # one run, in a child process
     args = ap.parse_args()
+    roslaunch_session.exit_on_sigterm()   # `kill PID` stops the runs' graphs too
     if args.print_goals:
         for g in draw_goals(args.goals, args.seed):
             print(g)
