@@ -100,11 +100,12 @@ def known_bbox(data, margin):
             max(0, cols.min() - margin), min(data.shape[1], cols.max() + 1 + margin))
 
 
-def draw_costmap_picture(costmap_msg, plan_xy, driven_xy, spot, path, title, scale=3):
-    """The global costmap (grey levels, lethal black, inflation shaded), the plan (blue)
-    and the driven path (green) to a spot (red arrow), in the map frame."""
-    info = costmap_msg.info
-    data = np.asarray(costmap_msg.data, np.int16).reshape(info.height, info.width)
+def draw_costmap_picture(costmap, plan_xy, driven_xy, spot, path, title, scale=3):
+    """The global costmap (CostmapClient.snapshot(): header, info, grid; grey levels, lethal
+    black, inflation shaded), the plan (blue) and the driven path (green) to a spot (red
+    arrow), in the map frame."""
+    _, info, grid = costmap
+    data = grid.astype(np.int16)
     res = info.resolution
     r0, r1, c0, c1 = known_bbox(data, int(round(1.0 / res)))
     data = data[r0:r1, c0:c1]
@@ -169,7 +170,7 @@ class Watch:
     def __init__(self, project):
         import rospy
         from geometry_msgs.msg import PoseArray
-        from nav_msgs.msg import OccupancyGrid, Path
+        from nav_msgs.msg import Path
         from rospy.numpy_msg import numpy_msg
         from sensor_msgs.msg import LaserScan
         self.project = project
@@ -177,13 +178,13 @@ class Watch:
         self.scan, self.scan_pose = None, None
         self.cloud = None
         self.plan = None
-        self.costmap = None
+        # the whole grid once, then the windows redrawn since on costmap_updates
+        from summit_nav_common.ros.costmap_client import CostmapClient
+        self.costmap = CostmapClient("/move_base/global_costmap/costmap")
         self.subs = [
             rospy.Subscriber("/hokuyo_base/scan", numpy_msg(LaserScan), self._on_scan, queue_size=1),
             rospy.Subscriber("/particlecloud", PoseArray, self._on_cloud, queue_size=1),
-            rospy.Subscriber("/move_base/NavfnROS/plan", Path, self._on_plan, queue_size=1),
-            rospy.Subscriber("/move_base/global_costmap/costmap", numpy_msg(OccupancyGrid),
-                             lambda m: setattr(self, "costmap", m), queue_size=1, buff_size=2 ** 24)]
+            rospy.Subscriber("/move_base/NavfnROS/plan", Path, self._on_plan, queue_size=1)]
 
     def _on_scan(self, msg):
         pose = self.project.pose()
@@ -320,8 +321,9 @@ def run_course(progress, gui, seed, work, speed=SPEED):
                 ok = resp.navigation_successfull and exy <= XY_TOL and eyaw <= YAW_TOL
                 progress(f"/get_coordinates '{label}': {resp.navigation_successfull}, \"{resp.message}\"; ground truth "
                          f"{exy:.3f} m / {math.degrees(eyaw):.1f} deg from the spot")
-                if watch.costmap is not None:
-                    draw_costmap_picture(watch.costmap, first_plan or [], driven, project.spot_in_map(label),
+                costmap = watch.costmap.snapshot()
+                if costmap is not None:
+                    draw_costmap_picture(costmap, first_plan or [], driven, project.spot_in_map(label),
                                          os.path.join(OUT, f"demo_nav_{label}.png"),
                                          f"/get_coordinates '{label}': plan (blue), driven (green), global costmap")
                 row(f"3. /get_coordinates '{label}'", ok, rospy.Time.now().to_sec() - t0, time.monotonic() - w0,

@@ -61,10 +61,9 @@ def write_images(folder, seed=5, height=23, width=31):
         "bilevel.png": Image.fromarray(grey, "L").convert("1"),
         "grey16.png": Image.fromarray(wide, "I;16"),
     }
+    images["palette_transparent.png"] = Image.fromarray(rgb, "RGB").quantize(16)
     for name, im in images.items():
-        im.save(os.path.join(folder, name))
-    images["palette_transparent.png"] = None
-    Image.fromarray(rgb, "RGB").quantize(16).save(os.path.join(folder, "palette_transparent.png"), transparency=3)
+        im.save(os.path.join(folder, name), **({"transparency": 3} if name == "palette_transparent.png" else {}))
     names = []
     for image in sorted(images):
         for mode in ("trinary", "scale", "raw"):

@@ -68,7 +68,11 @@ def test_missing_planner_namespaces_mean_defaults(footprint):
     assert [n for n, _ in pl.recoveries] == ["conservative_reset", "rotate_recovery", "aggressive_reset",
                                              "rotate_recovery"]
     (_, cons), (_, rot), (_, aggr), _ = pl.recoveries
-    assert cons.reset_distance == 3.0 and aggr.reset_distance == pytest.approx(4 * footprint.circumscribed_radius)
+    # move_base's aggressive reset: 4 x ~local_costmap/circumscribed_radius (0.46 m), not the footprint's
+    assert cons.reset_distance == 3.0 and aggr.reset_distance == pytest.approx(4 * 0.46)
+    p = move_base_params({"base_local_planner": DWA, "local_costmap": {"circumscribed_radius": 0.5}})
+    aggr = dict(MoveBasePlugins(p, footprint=footprint).recoveries)["aggressive_reset"]
+    assert aggr.reset_distance == pytest.approx(2.0)
     assert rot.max_rotational_vel == 1.0 and rot.acc_lim_th == 3.2     # DWA's defaults
     assert pl.goal_tolerance() == (True, 0.0)
     assert pl.make_local_planner() is not pl.local_planner

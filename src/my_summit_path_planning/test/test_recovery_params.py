@@ -330,3 +330,28 @@ def _hits(m, footprint, pose):
     x, y = pose[0] + c * u - s * v, pose[1] + s * u + c * v
     mx, my = np.floor((x + 3.0) / 0.05).astype(int), np.floor((y + 3.0) / 0.05).astype(int)
     return bool((m.data[my, mx] == cv.LETHAL_OBSTACLE).any())
+
+
+def test_clear_keeps_the_cells_strictly_inside_the_square_as_clear_area(footprint):
+    """costmap_2d's CostmapLayer::clearArea keeps (or, inverted, clears) the cells strictly
+    between the cells of the square's corners: x > start_x && x < end_x. Ours kept the
+    corner cells' rows and columns too, one cell more on each side (review, session 28)."""
+    for invert in (False, True):
+        lc = _with_obstacles(footprint)
+        layer = lc.layer("obstacle_layer")
+        layer.grid.data[:] = cv.LETHAL_OBSTACLE
+        robot, d = (0.33, -0.21), 1.0
+        clear_costmap_layers(lc, robot, d, ("obstacle_layer",), invert=invert)
+        m = layer.grid
+        sx, sy = m.world_to_map_no_bounds(robot[0] - d / 2, robot[1] - d / 2)
+        ex, ey = m.world_to_map_no_bounds(robot[0] + d / 2, robot[1] + d / 2)
+        xs, ys = np.meshgrid(np.arange(m.size_x), np.arange(m.size_y))
+        inside = (xs > sx) & (xs < ex) & (ys > sy) & (ys < ey)
+        kept = (m.data == cv.LETHAL_OBSTACLE)
+        np.testing.assert_array_equal(kept, inside if not invert else ~inside)
+
+
+def test_rotate_recovery_refuses_a_step_that_is_not_positive(footprint):
+    for bad in (0.0, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="sim_granularity: expected a positive number"):
+            RotateRecovery(footprint, sim_granularity=bad)

@@ -153,7 +153,6 @@ def test_file_that_is_not_an_image_names_it(tmp_path):
     (tmp_path / "m.png").write_text("not an image")
     with pytest.raises(MapError, match=r"field 'image': cannot read .*m\.png as an image"):
         load_map(yaml_for(tmp_path, "m.png"))
-    (tmp_path / "f.tiff").write_bytes(b"")
     from PIL import Image
     Image.fromarray(np.zeros((2, 2), np.float32), "F").save(tmp_path / "f.tiff")
     with pytest.raises(MapError, match="F pixels; map_server reads 8- and 16-bit grey"):

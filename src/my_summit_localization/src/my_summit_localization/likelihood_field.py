@@ -352,8 +352,9 @@ class BeamModel:
         out = np.empty((particles.shape[0], len(bearings)))
         tmax = range_max / f.resolution
         bearings = np.asarray(bearings, np.float64)
+        raycast = _raycast()
         for i in range(particles.shape[0]):
-            _raycast().cast_rays(self.occupied, self.dist_cells, sx[i], sy[i], yaw[i] + bearings,
+            raycast.cast_rays(self.occupied, self.dist_cells, sx[i], sy[i], yaw[i] + bearings,
                               tmax, out=out[i])
         out *= f.resolution
         np.minimum(out, range_max, out=out)

@@ -157,8 +157,8 @@ def service_plan(planner, costmap, robot, start, goal, tolerance, clearing_radiu
     tolerance of the goal (ours: the planner's nearest-cell search, where move_base tries
     offsets on a grid of 3 cells), with the goal itself appended when
     add_unreachable_goal (make_plan_add_unreachable_goal), "in case the local planner can
-    get you there". clearing_radius [m] (make_plan_clear_costmap; move_base: the
-    circumscribed radius): plan as if the square of half-side clearing_radius around robot
+    get you there". clearing_radius [m] (make_plan_clear_costmap; move_base's
+    ~clearing_radius): plan as if the square of half-side clearing_radius around robot
     (x, y, yaw) were free space; the real move_base frees it in its live costmaps, where
     it can outlast the request, ours in a copy. None: plan on the costmap as it is.
     GoalError with the planner's reason when there is no path.

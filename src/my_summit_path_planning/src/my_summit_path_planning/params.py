@@ -66,6 +66,7 @@ class MoveBaseConfig:
     max_planning_retries: int = -1         # -1 = unlimited
     make_plan_clear_costmap: bool = True   # ~make_plan plans as if the robot's circumscribed square were free
     make_plan_add_unreachable_goal: bool = True  # ~make_plan appends the goal to a path that ends short of it
+    clearing_radius: float = None          # [m] ~make_plan's free square half-side; None: local_costmap/circumscribed_radius
     # ours: a folder; each time the local planner finds no valid command for
     # controller_patience, the controller's inputs (local costmap, pose, velocity, planner
     # state) are pickled there for an offline replay (at most DEBUG_DUMPS per run). Empty: off.
@@ -100,6 +101,9 @@ class CostmapConfig:
     origin_y: float = 0.0                  # [m]
     footprint: object = None               # [[x, y], ...] [m] or its string
     robot_radius: float = 0.46             # [m] used when footprint is unset
+    # Not costmap_2d's (it computes the radius from the footprint): move_base reads
+    # ~local_costmap/circumscribed_radius for aggressive_reset (4 x) and clearing_radius.
+    circumscribed_radius: float = 0.46     # [m]
     footprint_padding: float = 0.01        # [m]
     plugins: list = field(default_factory=list)
     layer_params: dict = field(default_factory=dict)  # {layer name: {param: value}}

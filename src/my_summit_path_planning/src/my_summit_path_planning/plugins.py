@@ -209,11 +209,12 @@ def recovery_sequence(spec, namespaces, ctx):
 
 
 def default_recovery_sequence(ctx, conservative_reset_dist=3.0, clearing_rotation_allowed=True,
-                              namespaces=None):
+                              namespaces=None, circumscribed_radius=0.46):
     """move_base's default recoveries in order: [(name, behaviour), ...].
 
     conservative_reset (reset_distance = conservative_reset_dist [m]), rotate_recovery,
-    aggressive_reset (reset_distance = 4 x the circumscribed radius), rotate_recovery; the
+    aggressive_reset (reset_distance = 4 x circumscribed_radius [m], move_base's
+    ~local_costmap/circumscribed_radius parameter, not the footprint's), rotate_recovery; the
     rotations are left out when clearing_rotation_allowed is false. namespaces: the
     behaviours' own namespaces (~conservative_reset/layer_names, ...); move_base sets
     their reset_distance itself.
@@ -226,7 +227,7 @@ def default_recovery_sequence(ctx, conservative_reset_dist=3.0, clearing_rotatio
     ns = {"conservative_reset": {**(namespaces.get("conservative_reset") or {}),
                                  "reset_distance": float(conservative_reset_dist)},
           "aggressive_reset": {**(namespaces.get("aggressive_reset") or {}), "reset_distance":
-                               recovery.AGGRESSIVE_RADIUS_FACTOR * ctx.footprint.circumscribed_radius},
+                               recovery.AGGRESSIVE_RADIUS_FACTOR * float(circumscribed_radius)},
           "rotate_recovery": namespaces.get("rotate_recovery") or {}}
     seq = recovery_sequence(spec, ns, ctx)
     if clearing_rotation_allowed:
@@ -294,7 +295,8 @@ class MoveBasePlugins:
                 self.recovery_error = str(e)
         if self.recoveries is None:
             self.recoveries = default_recovery_sequence(self.ctx, mb.conservative_reset_dist,
-                                                        mb.clearing_rotation_allowed, p.namespaces)
+                                                        mb.clearing_rotation_allowed, p.namespaces,
+                                                        p.local_costmap.circumscribed_radius)
         seen = set()
         for name, beh in self.recoveries:
             if id(beh) not in seen:

@@ -65,8 +65,9 @@ def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_
         if force_clear_all:
             layer.reset()
         else:
-            # clear_window's invert clears outside the window: the recovery's default
-            layer.clear_window((x0, y0, x1 + 1, y1 + 1), invert=not invert)
+            # the square's inside is the cells strictly between its corner cells, as in
+            # costmap_2d's clearArea; clear_window's invert clears outside it (the default)
+            layer.clear_window((x0 + 1, y0 + 1, x1, y1), invert=not invert)
         cleared.append(layer.name)
     # The master is redrawn whole at the next update_map, so cleared cells vanish.
     layered.force_full_update = True
@@ -300,6 +301,8 @@ class RotateRecovery:
     def __init__(self, footprint, sim_granularity=0.017, frequency=20.0, acc_lim_th=3.2,
                  max_rotational_vel=1.0, min_in_place_rotational_vel=0.4,
                  yaw_goal_tolerance=0.10, check_ahead=math.pi / 2.0):
+        # the real node loops forever on a step of 0; ours refuses it at start
+        _check_positive(sim_granularity=sim_granularity, frequency=frequency)
         self.footprint = footprint
         self.sim_granularity = sim_granularity
         self.frequency = frequency
@@ -337,7 +340,7 @@ class RotateRecovery:
         """The footprint stays free of lethal/unknown cells over the next angle [rad] of turn
         (checked every sim_granularity [rad], with DWA's footprint_clearance: axis circles,
         refined by the grid circles and the corners near obstacles)."""
-        step = max(self.sim_granularity, 1e-6)
+        step = self.sim_granularity
         n = max(1, int(math.ceil(angle / step)))
         sign = 1.0 if angle >= 0 else -1.0
         ths = pose[2] + sign * abs(angle) * np.arange(1, n + 1) / n

@@ -31,9 +31,10 @@ class CostmapClient:
 
     snapshot() -> (header, info, data) with data an (H, W) int8 copy, or None before the
     first whole grid; on_change(client), when given, is called after each message is
-    applied (in the subscriber's thread). An update that does not fit the grid it would
-    change (one sent for an older grid) is dropped with a warning: the next whole grid
-    puts it right.
+    applied (in the subscriber's thread). An update whose window does not fit the grid is
+    dropped with a warning; the next whole grid puts it right. (One sent for an older grid
+    of the same size cannot be told apart, here as in rviz; move_base sends a whole grid
+    whenever the size or origin changes.)
     """
 
     def __init__(self, topic, on_change=None):
