@@ -250,6 +250,8 @@ def read_image(path):
             else:
                 raise MapError(f"{path}: {mode} pixels; map_server reads 8- and 16-bit grey, "
                                f"palette, RGB and RGBA images")
+    except MapError:
+        raise
     except (OSError, ValueError, Image.DecompressionBombError) as e:
         raise MapError(f"cannot read {path} as an image: {e}") from None
     if fmt in BGR_FORMATS:
