@@ -10,6 +10,7 @@ then every layer writes its costs into the master grid in the plugins' order) an
 Conventions: ``data`` is (size_y, size_x) uint8, row 0 the lowest y (OccupancyGrid
 order), cell (mx, my) = data[my, mx] covering [origin + m * resolution, ... + resolution).
 """
+import copy
 import logging
 import math
 
@@ -107,6 +108,12 @@ class Costmap2D:
         """Cost of the cell under world point (wx, wy) [m]; None when off the map."""
         cell = self.world_to_map(wx, wy)
         return None if cell is None else int(self.data[cell[1], cell[0]])
+
+    def copy(self):
+        """An independent copy (its own cells, the same geometry)."""
+        out = copy.copy(self)
+        out.data = self.data.copy()
+        return out
 
     def reset(self, window=None):
         """Set every cell (or the cells of window (x0, y0, x1, y1), ends exclusive) to default."""

@@ -25,7 +25,6 @@ Also here: the checks of a goal before it is accepted (accept_goal; GoalError wi
 abort text), and the ~make_plan service's planning (service_plan).
 """
 import collections
-import copy
 import math
 from dataclasses import dataclass, field
 
@@ -181,8 +180,7 @@ def service_plan(planner, costmap, robot, start, goal, tolerance, clearing_radiu
 def _with_free_square(costmap, centre, half_side):
     """A copy of costmap with the cells of the square of half_side [m] around centre
     (x, y) set to free space (move_base's clearCostmapWindows)."""
-    out = copy.copy(costmap)
-    out.data = costmap.data.copy()
+    out = costmap.copy()
     x0, y0 = costmap.world_to_map_no_bounds(centre[0] - half_side, centre[1] - half_side)
     x1, y1 = costmap.world_to_map_no_bounds(centre[0] + half_side, centre[1] + half_side)
     x0, y0 = max(0, x0), max(0, y0)

@@ -256,6 +256,13 @@ class MoveBaseParams:
         return dict(self.namespaces.get(name) or {})
 
     @property
+    def clearing_radius(self):
+        """~clearing_radius [m] (~make_plan's free square), by default move_base's
+        ~local_costmap/circumscribed_radius."""
+        c = self.move_base.clearing_radius
+        return self.local_costmap.circumscribed_radius if c is None else c
+
+    @property
     def navfn(self):
         """NavfnConfig of ~NavfnROS."""
         return navfn_config(self.namespace("NavfnROS"), "NavfnROS")

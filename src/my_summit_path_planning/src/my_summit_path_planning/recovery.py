@@ -43,6 +43,24 @@ class RecoveryStep:
     reason: str = ""
 
 
+def named_layers(layered, layer_names):
+    """The layers of a LayeredCostmap clear_costmap_recovery's layer_names names (by the
+    name after the last "/", as costmap_2d's plugin names go)."""
+    return [l for l in layered.layers if l.name.rsplit("/", 1)[-1] in layer_names]
+
+
+def nothing_cleared_notes(costmaps, clears, rule):
+    """One note for each costmap handle in which clears(layered) finds no layer: a clearing
+    behaviour that will clear nothing there (rule: what it clears, for the note)."""
+    out = []
+    for c in costmaps:
+        if c is not None and not clears(c.layered):
+            names = ", ".join(l.name for l in c.layered.layers)
+            out.append(f"{rule}, and {getattr(c, 'name', 'a costmap')} has none ({names}): "
+                       f"it will clear nothing there")
+    return out
+
+
 def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_LAYER_NAMES,
                          force_clear_all=False, invert=False):
     """Clear obstacle layers outside (invert: inside) a reset_distance [m] square centred
@@ -59,8 +77,8 @@ def clear_costmap_layers(layered, robot_xy, reset_distance, layer_names=DEFAULT_
     half = 0.5 * float(reset_distance)
     x0, y0 = m.world_to_map_no_bounds(robot_xy[0] - half, robot_xy[1] - half)
     x1, y1 = m.world_to_map_no_bounds(robot_xy[0] + half, robot_xy[1] + half)
-    for layer in layered.layers:
-        if layer.name.rsplit("/", 1)[-1] not in layer_names or not hasattr(layer, "clear_window"):
+    for layer in named_layers(layered, layer_names):
+        if not hasattr(layer, "clear_window"):
             continue
         if force_clear_all:
             layer.reset()
@@ -105,14 +123,9 @@ class ClearCostmapRecovery:
         """Why this behaviour would clear nothing in a costmap (said once at start): the
         layer_names default, [obstacles], misses layers named otherwise, in the real node
         too, which only logs the names it will clear."""
-        out = []
-        for c in self.costmaps:
-            present = [l.name for l in c.layered.layers]
-            if not any(n.rsplit("/", 1)[-1] in self.layer_names for n in present):
-                out.append(f"clear_costmap_recovery clears the layers named {list(self.layer_names)} "
-                           f"(layer_names), and {getattr(c, 'name', 'a costmap')} has none "
-                           f"({', '.join(present)}): it will clear nothing there")
-        return out
+        return nothing_cleared_notes(self.costmaps, lambda layered: named_layers(layered, self.layer_names),
+                                     f"clear_costmap_recovery clears the layers named {list(self.layer_names)} "
+                                     f"(layer_names)")
 
     def start(self, pose, trail=()):
         """Nothing to prepare: the clearing is one step."""
@@ -184,14 +197,9 @@ class MoveSlowAndClear:
 
     def clearing_notes(self):
         """Why this behaviour would clear nothing in a costmap (said once at start)."""
-        out = []
-        for c in (self.global_costmap, self.local_costmap):
-            if c is not None and not slow_clearing_layers(c.layered):
-                names = ", ".join(l.name for l in c.layered.layers)
-                out.append(f"move_slow_and_clear clears only layers whose name contains "
-                           f"'{SLOW_LAYER_MARK}', and {getattr(c, 'name', 'a costmap')} has none "
-                           f"({names}): it will clear nothing there")
-        return out
+        return nothing_cleared_notes((self.global_costmap, self.local_costmap), slow_clearing_layers,
+                                     f"move_slow_and_clear clears only layers whose name contains "
+                                     f"'{SLOW_LAYER_MARK}'")
 
     def start(self, pose, trail=()):
         """Nothing to prepare: the behaviour is one step."""
