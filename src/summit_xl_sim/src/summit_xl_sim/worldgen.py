@@ -1,9 +1,17 @@
-"""Draw a world description (walls with doors, rectangles, circles) into a map_server map.
+"""Draw a world description (walls with doors, tracks, rectangles, circles) into a map_server map.
 
 The built-in world is kept as a readable YAML description (worlds/*.world.yaml); this
 module rasterizes it with OpenCV polygons (sub-pixel precision) at the description's
 resolution: unknown (205) outside the building, free (254) inside, walls and furniture
 occupied (0), exactly the trinary image map_saver would write.
+
+Tracks (roads with a wall on each side, as on a race circuit) are given by their centre
+line, a polyline whose corners may be rounded with a radius (a fillet: the arc tangent to
+both legs, as in CAD). A track of width w is the set of points within w/2 of its centre
+line (a Minkowski sum with a disc), so every point of the centre line has exactly w/2 of
+clearance; its walls are the band from w/2 to w/2 + wall_thickness. All tracks' walls are
+drawn before any track's road, so where two tracks meet (a pit lane joining the main
+straight) the road cuts through the wall and they connect.
 """
 import math
 
@@ -42,12 +50,16 @@ def load_description(path):
         raise WorldDescriptionError(f"{path}: malformed YAML: {e}") from None
     if not isinstance(doc, dict):
         raise WorldDescriptionError(f"{path}: expected a mapping")
-    for key in ("name", "resolution", "origin", "size", "building", "wall_thickness"):
+    for key in ("name", "resolution", "origin", "size", "wall_thickness"):
         if key not in doc:
             raise WorldDescriptionError(f"{path}: missing field '{key}'")
+    if "building" not in doc and not doc.get("tracks"):
+        raise WorldDescriptionError(f"{path}: missing field 'building' (or 'tracks'): no free space to draw")
     doc["origin"] = _num_list(doc["origin"], 3, f"{path}: origin")
     doc["size"] = _num_list(doc["size"], 2, f"{path}: size")
-    doc["building"] = _num_list(doc["building"], 4, f"{path}: building")
+    if "building" in doc:
+        doc["building"] = _num_list(doc["building"], 4, f"{path}: building")
+    doc["tracks"] = {k: _load_track(v, f"{path}: tracks.{k}") for k, v in (doc.get("tracks") or {}).items()}
     for i, wall in enumerate(doc.get("walls", [])):
         where = f"{path}: walls[{i}]"
         wall["from"] = _num_list(wall.get("from"), 2, where + ".from")
@@ -59,6 +71,99 @@ def load_description(path):
     if "spawn" in doc:
         doc["spawn"] = _num_list(doc["spawn"], 3, f"{path}: spawn")
     return doc
+
+
+def _load_track(track, where):
+    """Validate one track entry {width, closed, centre: [[x, y] or [x, y, radius], ...]}."""
+    if not isinstance(track, dict):
+        raise WorldDescriptionError(f"{where}: expected a mapping with width, closed, centre")
+    width = _num_list([track.get("width")], 1, where + ".width")[0]
+    if width <= 0.0:
+        raise WorldDescriptionError(f"{where}.width: must be > 0 [m], got {width}")
+    closed = track.get("closed", False)
+    if not isinstance(closed, bool):
+        raise WorldDescriptionError(f"{where}.closed: expected true or false, got {closed!r}")
+    centre = track.get("centre")
+    if not isinstance(centre, list) or len(centre) < (3 if closed else 2):
+        raise WorldDescriptionError(f"{where}.centre: expected a list of at least "
+                                    f"{3 if closed else 2} points, got {centre!r}")
+    points = []
+    for i, pt in enumerate(centre):
+        n = len(pt) if isinstance(pt, (list, tuple)) and len(pt) in (2, 3) else 2
+        vals = _num_list(pt, n, f"{where}.centre[{i}]")
+        points.append((vals[0], vals[1], vals[2] if n == 3 else 0.0))
+    try:
+        line = round_corners(points, closed)
+    except ValueError as e:
+        raise WorldDescriptionError(f"{where}: {e}") from None
+    return {"width": width, "closed": closed, "centre": points, "line": line}
+
+
+def round_corners(points, closed, step=0.05):
+    """The centre line of a track: polyline vertices with rounded corners.
+
+    points: [(x, y, radius)] [m]; a corner with radius > 0 is replaced by the arc of that
+    radius tangent to both legs (sampled every ``step`` [m] at most); radius 0 keeps the
+    sharp corner (the ends of an open line are never rounded). Returns [(x, y)] [m]; for
+    a closed line the last point does not repeat the first. ValueError naming the vertex
+    when a radius is negative, two vertices coincide or the arcs of a leg overlap.
+    """
+    n = len(points)
+    legs = n if closed else n - 1
+
+    def unit(i):  # direction and length of leg i (from vertex i to vertex i + 1)
+        (x0, y0, _), (x1, y1, _) = points[i % n], points[(i + 1) % n]
+        length = math.hypot(x1 - x0, y1 - y0)
+        if length == 0.0:
+            raise ValueError(f"centre[{i % n}] and centre[{(i + 1) % n}] coincide")
+        return (x1 - x0) / length, (y1 - y0) / length, length
+
+    cut = [0.0] * n          # leg length [m] each corner's arc takes from each of its legs
+    arcs = [None] * n
+    for i in range(n):
+        x, y, r = points[i]
+        if r < 0.0:
+            raise ValueError(f"centre[{i}]: corner radius must be >= 0 [m], got {r}")
+        if r == 0.0 or (not closed and i in (0, n - 1)):
+            continue
+        ax, ay, _ = unit(i - 1)
+        bx, by, _ = unit(i)
+        turn = math.atan2(ax * by - ay * bx, ax * bx + ay * by)  # signed heading change [rad]
+        if abs(turn) < 1e-9:
+            continue
+        if abs(turn) > math.pi - 1e-6:
+            raise ValueError(f"centre[{i}]: the line turns back on itself (180 deg); "
+                             f"make a hairpin of two 90 deg corners")
+        cut[i] = r * math.tan(abs(turn) / 2.0)
+        # Arc centre: from the tangent point on the incoming leg, r to the inside of the turn.
+        tx, ty = x - ax * cut[i], y - ay * cut[i]
+        side = 1.0 if turn > 0 else -1.0
+        cx, cy = tx - side * ay * r, ty + side * ax * r
+        start = math.atan2(ty - cy, tx - cx)
+        arcs[i] = (cx, cy, r, start, turn)
+    for i in range(legs):
+        length = unit(i)[2]
+        if cut[i] + cut[(i + 1) % n] > length + 1e-9:
+            raise ValueError(f"the corners at centre[{i}] and centre[{(i + 1) % n}] need "
+                             f"{cut[i] + cut[(i + 1) % n]:.2f} m of their {length:.2f} m leg: "
+                             f"make their radii smaller")
+    line = []
+    for i in range(n):
+        x, y, _ = points[i]
+        if arcs[i] is None:
+            line.append((x, y))
+            continue
+        cx, cy, r, start, turn = arcs[i]
+        k = max(1, int(math.ceil(abs(turn) * r / step)))
+        line.extend((cx + r * math.cos(start + turn * j / k), cy + r * math.sin(start + turn * j / k))
+                    for j in range(k + 1))
+    return line
+
+
+def polyline_length(line, closed):
+    """Length [m] of a polyline [(x, y)], including the closing leg when ``closed``."""
+    pts = list(line) + ([line[0]] if closed else [])
+    return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(pts, pts[1:]))
 
 
 def wall_pieces(wall):
@@ -91,9 +196,27 @@ def draw(doc):
         pts = np.array([px(x, y) for x, y in corners], np.int32)
         cv2.fillPoly(img, [pts], int(value), lineType=cv2.LINE_8, shift=SHIFT)
 
-    bx0, by0, bx1, by1 = doc["building"]
-    poly([(bx0, by0), (bx1, by0), (bx1, by1), (bx0, by1)], PGM_FREE)
+    def band(line, closed, half_width, value):
+        # Minkowski sum of the polyline and a disc: a quad per leg, a disc per vertex.
+        pts = list(line) + ([line[0]] if closed else [])
+        for (x1, y1), (x2, y2) in zip(pts, pts[1:]):
+            length = math.hypot(x2 - x1, y2 - y1)
+            if length == 0.0:
+                continue
+            nx, ny = -(y2 - y1) / length * half_width, (x2 - x1) / length * half_width
+            poly([(x1 + nx, y1 + ny), (x2 + nx, y2 + ny), (x2 - nx, y2 - ny), (x1 - nx, y1 - ny)], value)
+        for x, y in pts:
+            cv2.circle(img, px(x, y), int(round(half_width / res * SCALE)), int(value),
+                       thickness=-1, lineType=cv2.LINE_8, shift=SHIFT)
+
+    if "building" in doc:
+        bx0, by0, bx1, by1 = doc["building"]
+        poly([(bx0, by0), (bx1, by0), (bx1, by1), (bx0, by1)], PGM_FREE)
     half_t = float(doc["wall_thickness"]) / 2.0
+    for track in doc["tracks"].values():
+        band(track["line"], track["closed"], track["width"] / 2.0 + 2.0 * half_t, PGM_OCCUPIED)
+    for track in doc["tracks"].values():
+        band(track["line"], track["closed"], track["width"] / 2.0, PGM_FREE)
     for wall in doc.get("walls", []):
         for x1, y1, x2, y2 in wall_pieces(wall):
             length = math.hypot(x2 - x1, y2 - y1)
