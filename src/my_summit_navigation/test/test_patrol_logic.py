@@ -1,7 +1,7 @@
-"""Unit tests of the patrol's decisions (my_summit_navigation.patrol_logic)."""
+"""Unit tests of the patrol's decisions (my_summit_navigation.cruise)."""
 import math
 
-from my_summit_navigation import patrol_logic as pl
+from my_summit_navigation import cruise as pl
 from my_summit_navigation.spot_goals import SpotBook
 
 SPOTS = """frame_id: map
