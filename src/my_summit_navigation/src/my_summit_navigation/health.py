@@ -1,0 +1,561 @@
+"""The navigation health report: the tutorial's key indicators measured on a running robot.
+
+Follows the race-track tutorial's section 7.1 (key metrics and their ideal values:
+localization error against the true pose < 0.1 m, path planning time < 1.0 s, control
+rate >= 10 Hz, CPU < 70 %) and 4.3 (what rqt_runtime_monitor, ``rostopic hz`` and htop
+show), as one report instead of four tools. The ROS adapter (scripts/nav_health) records
+topics into a Recording; everything here is arrays in, numbers and pictures out:
+
+- ``interpolate_track``: the simulator's truth (x, y, yaw) at amcl's pose stamps, linear
+  between the two truth samples around each stamp (yaw on the shorter arc); a stamp with
+  no truth within ``max_gap`` on both sides has none (NaN), so a pause of the truth is
+  never bridged;
+- ``stats``: median, 95th percentile and worst of a sample;
+- ``window_rates``: messages per second in consecutive 1 s windows of simulated time that
+  lie wholly inside the intervals where a goal was active (``rostopic hz`` while driving);
+- ``cpu_percent``: CPU seconds over wall seconds of a process, as top shows it (% of one
+  core), and per simulated second;
+- ``split_laps``: the truth path cut at each return through a gate (a point on the
+  circuit, e.g. the first waypoint) after having left it;
+- ``dock_visits``: the spans where the robot stood (speed below ``stop_speed``) within
+  ``radius`` of the dock pose;
+- ``build_report`` / ``check_rows`` / ``format_table``: the JSON report and the table of
+  metric, value, threshold and PASS / FAIL;
+- ``draw_laps`` and ``draw_time_series``: the two pictures (OpenCV, no matplotlib), as
+  BGR arrays; ``encode_png`` gives the bytes for summit_nav_common.files.write_atomic.
+"""
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+import yaml
+
+# The tutorial's thresholds (section 7.1), and SPEC.md's memory bound for every node.
+LOCALIZATION_MEDIAN_MAX = 0.1   # [m] "localization error < 0.1 m"
+LOCALIZATION_WORST_MAX = 0.2    # [m] issue 40: no pose estimate worse than this
+PLANNING_TIME_MAX = 1.0         # [s] "path planning time < 1.0 s"
+CONTROL_RATE_MIN = 10.0         # [Hz] "control rate >= 10 Hz"
+CPU_PERCENT_MAX = 70.0          # [% of one core] "CPU < 70 %"
+PEAK_MEMORY_MAX = 1024.0        # [MB] SPEC.md: every node under 1 GB resident
+
+TRUTH_MAX_GAP = 0.5       # [s] a truth sample farther than this from a stamp does not count
+RATE_WINDOW = 1.0         # [s] of simulated time per control-rate window
+DOCK_RADIUS = 0.3         # [m] the simulator's charger: robot stopped within 0.3 m of the dock
+STOP_SPEED = 0.02         # [m/s] below this the robot stands (the truth's speed)
+GATE_RADIUS = 1.0         # [m] passing this close to the lap gate completes a lap...
+GATE_LEAVE = 3.0          # [m] ...once the robot has been this far from it since the last pass
+
+PASS, FAIL, NO_DATA, INFO = "PASS", "FAIL", "no data", ""
+
+
+class HealthError(ValueError):
+    """Bad input to the report (a dock that is not x,y,yaw_deg, a waypoints file without
+    a dock); the message names the argument or file."""
+
+
+@dataclass
+class Recording:
+    """What the adapter collected, in simulated seconds [s] unless named otherwise.
+
+    Each list holds tuples, appended by the subscribers:
+    amcl: (stamp, x [m], y [m], yaw [rad]); truth: (stamp, x, y, yaw, speed [m/s]);
+    plan_times: (t, last plan time [s]); cmd_vel: receive times; goal_active: (t, active
+    bool) at each /move_base/status message; battery: (t, percentage 0-1, charging bool).
+    """
+
+    amcl: list = field(default_factory=list)
+    truth: list = field(default_factory=list)
+    plan_times: list = field(default_factory=list)
+    cmd_vel: list = field(default_factory=list)
+    goal_active: list = field(default_factory=list)
+    battery: list = field(default_factory=list)
+
+
+# --- statistics ------------------------------------------------------------------------
+
+def stats(values):
+    """{"samples", "median", "p95", "worst"} of a sample (NaNs dropped); the three figures
+    are None for an empty sample."""
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {"samples": 0, "median": None, "p95": None, "worst": None}
+    return {"samples": int(v.size), "median": float(np.median(v)),
+            "p95": float(np.percentile(v, 95)), "worst": float(v.max())}
+
+
+def interpolate_track(t_query, t, x, y, yaw, max_gap=TRUTH_MAX_GAP):
+    """(x, y, yaw) of a track (t ascending [s]) at each of t_query, each an array; linear
+    between the two samples around a query (yaw along the shorter arc, wrapped to
+    [-pi, pi)); NaN where the query lies outside the track or a neighbour is more than
+    max_gap [s] away."""
+    tq = np.asarray(t_query, dtype=np.float64).reshape(-1)
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    nan = np.full(tq.shape, np.nan)
+    if t.size == 0:
+        return nan, nan.copy(), nan.copy()
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    yaw_u = np.unwrap(np.asarray(yaw, dtype=np.float64))
+    hi = np.clip(np.searchsorted(t, tq, side="left"), 0, t.size - 1)
+    lo = np.clip(hi - 1, 0, t.size - 1)
+    exact = t[hi] == tq
+    lo = np.where(exact, hi, lo)
+    span = t[hi] - t[lo]
+    w = np.where(span > 0, (tq - t[lo]) / np.where(span > 0, span, 1.0), 0.0)
+    ok = (tq >= t[0]) & (tq <= t[-1]) & (tq - t[lo] <= max_gap) & (t[hi] - tq <= max_gap)
+    xi = np.where(ok, x[lo] + w * (x[hi] - x[lo]), np.nan)
+    yi = np.where(ok, y[lo] + w * (y[hi] - y[lo]), np.nan)
+    yawi = yaw_u[lo] + w * (yaw_u[hi] - yaw_u[lo])
+    yawi = np.where(ok, (yawi + math.pi) % (2 * math.pi) - math.pi, np.nan)
+    return xi, yi, yawi
+
+
+def localization_errors(amcl, truth, max_gap=TRUTH_MAX_GAP):
+    """(position error [m], heading error [rad]) arrays of amcl poses (N, 4: stamp, x, y,
+    yaw) against the truth track (M, >= 4: stamp, x, y, yaw, ...) at each pose's stamp;
+    NaN where the truth does not cover the stamp."""
+    a = np.asarray(amcl, dtype=np.float64).reshape(-1, 4)
+    tr = np.asarray(truth, dtype=np.float64)
+    if tr.size == 0:
+        return np.full(len(a), np.nan), np.full(len(a), np.nan)
+    tr = tr[np.argsort(tr[:, 0], kind="stable")]
+    x, y, yaw = interpolate_track(a[:, 0], tr[:, 0], tr[:, 1], tr[:, 2], tr[:, 3], max_gap)
+    pos = np.hypot(a[:, 1] - x, a[:, 2] - y)
+    head = np.abs((a[:, 3] - yaw + math.pi) % (2 * math.pi) - math.pi)
+    return pos, head
+
+
+def active_intervals(status, t_end):
+    """[(t0, t1)] where a goal was active, from (t, active) samples in time order; an
+    interval still open at the last sample ends at t_end [s]."""
+    out, start = [], None
+    for t, active in status:
+        if active and start is None:
+            start = t
+        elif not active and start is not None:
+            out.append((start, t))
+            start = None
+    if start is not None and t_end > start:
+        out.append((start, t_end))
+    return out
+
+
+def window_rates(times, intervals, window=RATE_WINDOW):
+    """Messages per second [Hz] in each whole window [s] of consecutive windows laid from
+    the start of each interval (t0, t1) [s]; a window that would run past t1 is left out."""
+    t = np.sort(np.asarray(times, dtype=np.float64).reshape(-1))
+    rates = []
+    for t0, t1 in intervals:
+        n = int(math.floor((t1 - t0) / window + 1e-9))
+        if n <= 0:
+            continue
+        edges = t0 + window * np.arange(n + 1)
+        counts = np.diff(np.searchsorted(t, edges, side="left"))
+        rates.extend((counts / window).tolist())
+    return np.asarray(rates, dtype=np.float64)
+
+
+def cpu_percent(first, last):
+    """(CPU [% of one core] over wall time, CPU seconds per simulated second) between two
+    samples (wall [s], sim [s], cpu [s]) of one process; None for a figure whose span is
+    not positive."""
+    dw, ds, dc = (last[i] - first[i] for i in range(3))
+    return (100.0 * dc / dw if dw > 0 else None, dc / ds if ds > 0 else None)
+
+
+# --- laps and dock ---------------------------------------------------------------------
+
+def split_laps(xy, gate, gate_radius=GATE_RADIUS, leave=GATE_LEAVE):
+    """Indices of the path's (N, 2 [m]) lap boundaries: in each pass within gate_radius of
+    gate (x, y) made after having been more than leave [m] from it since the previous
+    boundary, the sample closest to the gate (so every lap is cut at the same place);
+    the pass the path starts in is a boundary too. The samples before the first boundary
+    lead in, those after the last are an unfinished lap."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) == 0:
+        return []
+    d = np.hypot(xy[:, 0] - gate[0], xy[:, 1] - gate[1])
+    inside = d <= gate_radius
+    bounds, armed, i, n = [], True, 0, len(d)
+    while i < n:
+        if not inside[i]:
+            armed = armed or d[i] > leave
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and inside[j + 1]:
+            j += 1
+        if armed or i == 0:
+            bounds.append(i + int(np.argmin(d[i:j + 1])))
+            armed = False
+        i = j + 1
+    return bounds
+
+
+def dock_visits(t, xy, speed, dock, radius=DOCK_RADIUS, stop_speed=STOP_SPEED):
+    """[(t_in, t_out)] [s] of each visit to the dock (x, y[, yaw]): a stay within radius
+    [m] of it during which the robot stood (speed [m/s] below stop_speed) at least once;
+    t_in/t_out are the first and last samples of the stay."""
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    speed = np.asarray(speed, dtype=np.float64).reshape(-1)
+    inside = np.hypot(xy[:, 0] - dock[0], xy[:, 1] - dock[1]) <= radius
+    visits, i, n = [], 0, len(t)
+    while i < n:
+        if not inside[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and inside[j + 1]:
+            j += 1
+        if np.any(speed[i:j + 1] < stop_speed):
+            visits.append((float(t[i]), float(t[j])))
+        i = j + 1
+    return visits
+
+
+def parse_dock(text):
+    """(x [m], y [m], yaw [rad]) of a --dock argument "x,y,yaw_deg"; HealthError otherwise."""
+    try:
+        parts = [float(p) for p in str(text).split(",")]
+    except ValueError:
+        parts = []
+    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
+        raise HealthError(f"--dock {text!r}: expected x,y,yaw_deg (three numbers, e.g. 1.5,-2,90)")
+    return parts[0], parts[1], math.radians(parts[2])
+
+
+def _pose_entry(entry, where):
+    """(x, y, yaw [rad]) of [x, y, yaw_deg] or {x, y, yaw_deg} (or yaw [rad])."""
+    try:
+        if isinstance(entry, dict):
+            yaw = math.radians(float(entry["yaw_deg"])) if "yaw_deg" in entry else float(entry.get("yaw", 0.0))
+            pose = (float(entry["x"]), float(entry["y"]), yaw)
+        else:
+            x, y, yaw_deg = (float(v) for v in entry)
+            pose = (x, y, math.radians(yaw_deg))
+    except (KeyError, TypeError, ValueError):
+        raise HealthError(f"{where}: expected [x, y, yaw_deg] or {{x, y, yaw_deg}}, got {entry!r}") from None
+    if not all(math.isfinite(v) for v in pose):
+        raise HealthError(f"{where}: not finite: {entry!r}")
+    return pose
+
+
+def read_waypoints(path):
+    """(dock pose or None, first waypoint pose or None) of a waypoints YAML: a mapping with
+    ``dock:`` and ``waypoints:`` (each [x, y, yaw_deg] or {x, y, yaw_deg}); HealthError
+    naming the file when it is missing or malformed."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            doc = yaml.safe_load(f)
+    except OSError as e:
+        raise HealthError(f"--waypoints {path}: cannot read it: {e.strerror}") from None
+    except yaml.YAMLError as e:
+        raise HealthError(f"--waypoints {path}: not valid YAML: {e}") from None
+    if not isinstance(doc, dict):
+        raise HealthError(f"--waypoints {path}: expected a mapping with 'dock' and 'waypoints' keys")
+    dock = _pose_entry(doc["dock"], f"{path}: dock") if doc.get("dock") is not None else None
+    points = doc.get("waypoints") or []
+    if not isinstance(points, list):
+        raise HealthError(f"{path}: 'waypoints' is not a list")
+    first = _pose_entry(points[0], f"{path}: waypoints[0]") if points else None
+    return dock, first
+
+
+# --- the report ------------------------------------------------------------------------
+
+def _round(v, nd=4):
+    return None if v is None else round(float(v), nd)
+
+
+def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=None):
+    """The health.json dictionary of a Recording between t_start and t_end (simulated [s]).
+
+    nodes: {name: {"pid", "cpu_percent", "cpu_s_per_sim_s", "peak_rss_mb"}} from the
+    adapter; dock: (x, y, yaw [rad]) or None; gate: (x, y) of the lap gate, default the
+    first truth position; summary: the cruise node's parsed summary or None.
+    """
+    truth = np.asarray(rec.truth, dtype=np.float64).reshape(-1, 5)
+    truth = truth[np.argsort(truth[:, 0], kind="stable")]
+    pos_err, head_err = localization_errors(rec.amcl, truth)
+    loc = stats(pos_err)
+    head = stats(np.degrees(head_err))
+    plan = stats([p for _, p in rec.plan_times])
+    intervals = active_intervals(rec.goal_active, t_end)
+    rates = window_rates(rec.cmd_vel, intervals)
+    battery = np.asarray(rec.battery, dtype=np.float64).reshape(-1, 3)
+
+    report = {
+        "sim_time_s": _round(t_end - t_start, 2),
+        "localization": {"samples": loc["samples"], "median_m": _round(loc["median"]),
+                         "p95_m": _round(loc["p95"]), "worst_m": _round(loc["worst"]),
+                         "heading_median_deg": _round(head["median"], 2),
+                         "heading_worst_deg": _round(head["worst"], 2)},
+        "planning": {"samples": plan["samples"], "median_s": _round(plan["median"]),
+                     "p95_s": _round(plan["p95"]), "worst_s": _round(plan["worst"])},
+        "control_rate": {"windows": int(rates.size),
+                         "goal_active_s": _round(sum(b - a for a, b in intervals), 2),
+                         "mean_hz": _round(rates.mean(), 2) if rates.size else None,
+                         "p5_hz": _round(np.percentile(rates, 5), 2) if rates.size else None},
+        "nodes": nodes or {},
+        "battery": {"samples": int(len(battery)),
+                    "start_percent": _round(100 * battery[0, 1], 1) if len(battery) else None,
+                    "end_percent": _round(100 * battery[-1, 1], 1) if len(battery) else None,
+                    "min_percent": _round(100 * battery[:, 1].min(), 1) if len(battery) else None},
+    }
+    xy = truth[:, 1:3]
+    steps = np.hypot(*np.diff(xy, axis=0).T) if len(xy) > 1 else np.zeros(0)
+    report["motion"] = {"distance_m": _round(steps.sum(), 2),
+                        "mean_speed_m_s": _round(truth[:, 4].mean(), 3) if len(truth) else None,
+                        "max_speed_m_s": _round(truth[:, 4].max(), 3) if len(truth) else None}
+    if gate is None and len(truth):
+        gate = tuple(truth[0, 1:3])
+    bounds = split_laps(xy, gate) if gate is not None else []
+    report["laps"] = {"gate": [_round(gate[0], 3), _round(gate[1], 3)] if gate is not None else None,
+                      "completed": max(0, len(bounds) - 1),
+                      "times_s": [_round(truth[b, 0] - truth[a, 0], 2) for a, b in zip(bounds, bounds[1:])]}
+    visits = dock_visits(truth[:, 0], xy, truth[:, 4], dock) if dock is not None else []
+    report["dock"] = {
+        "pose": None if dock is None else [_round(dock[0], 3), _round(dock[1], 3), _round(math.degrees(dock[2]), 1)],
+        "visits": [{"t_in_s": _round(a - t_start, 2), "t_out_s": _round(b - t_start, 2),
+                    "stay_s": _round(b - a, 2),
+                    "battery_in_percent": _battery_at(battery, a), "battery_out_percent": _battery_at(battery, b)}
+                   for a, b in visits]}
+    report["auto_navigator_summary"] = summary
+    report["checks"] = [dict(zip(("metric", "value", "threshold", "result"), row)) for row in check_rows(report)]
+    report["passed"] = all(c["result"] != FAIL for c in report["checks"])
+    return report
+
+
+def _battery_at(battery, t):
+    """Battery [%] of the last sample at or before t [s] (the first one before any), or None."""
+    if not len(battery):
+        return None
+    i = max(0, int(np.searchsorted(battery[:, 0], t, side="right")) - 1)
+    return _round(100 * battery[i, 1], 1)
+
+
+def _check(name, value, op, limit, unit, fmt="{:.3f}"):
+    """One table row; op is "<" or ">=" against limit."""
+    threshold = f"{op} {limit:g}{unit}"
+    if value is None:
+        return name, "-", threshold, NO_DATA
+    ok = value < limit if op == "<" else value >= limit
+    return name, fmt.format(value), threshold, PASS if ok else FAIL
+
+
+def check_rows(report):
+    """[(metric, value text, threshold text, PASS / FAIL / "no data" / "")] of a report:
+    the tutorial's thresholds, then figures given for information ("" result)."""
+    loc, plan, rate = report["localization"], report["planning"], report["control_rate"]
+    rows = [
+        _check("localization error median [m]", loc["median_m"], "<", LOCALIZATION_MEDIAN_MAX, " m"),
+        ("localization error p95 [m]", "-" if loc["p95_m"] is None else f"{loc['p95_m']:.3f}", "", INFO),
+        _check("localization error worst [m]", loc["worst_m"], "<", LOCALIZATION_WORST_MAX, " m"),
+        _check("planning time worst [s]", plan["worst_s"], "<", PLANNING_TIME_MAX, " s"),
+        ("planning time median [s]", "-" if plan["median_s"] is None else f"{plan['median_s']:.3f}", "", INFO),
+        _check("control rate mean [Hz]", rate["mean_hz"], ">=", CONTROL_RATE_MIN, " Hz", "{:.1f}"),
+        ("control rate p5 [Hz]", "-" if rate["p5_hz"] is None else f"{rate['p5_hz']:.1f}", "", INFO),
+    ]
+    for name, node in sorted(report["nodes"].items()):
+        rows.append(_check(f"CPU {name} [% core]", node.get("cpu_percent"), "<", CPU_PERCENT_MAX, " %", "{:.1f}"))
+        rows.append(_check(f"peak memory {name} [MB]", node.get("peak_rss_mb"), "<", PEAK_MEMORY_MAX, " MB",
+                           "{:.0f}"))
+    bat = report["battery"]
+    rows.append(("battery start / end / min [%]",
+                 "-" if bat["start_percent"] is None
+                 else f"{bat['start_percent']:.0f} / {bat['end_percent']:.0f} / {bat['min_percent']:.0f}", "", INFO))
+    rows.append(("distance driven [m]", f"{report['motion']['distance_m']:.1f}", "", INFO))
+    laps = report["laps"]
+    rows.append(("laps completed", str(laps["completed"]), "", INFO))
+    if laps["times_s"]:
+        rows.append(("lap time mean [s]", f"{np.mean(laps['times_s']):.1f}", "", INFO))
+    if report["dock"]["pose"] is not None:
+        rows.append(("dock visits", str(len(report["dock"]["visits"])), "", INFO))
+    return rows
+
+
+def format_table(rows):
+    """The rows as a fixed-width text table with a header line."""
+    head = ("metric", "value", "threshold", "result")
+    widths = [max(len(str(r[i])) for r in [head] + list(rows)) for i in range(4)]
+    line = "  ".join("{:<%d}" % w for w in widths)
+    out = [line.format(*head), "  ".join("-" * w for w in widths)]
+    out += [line.format(*(str(c) for c in r)).rstrip() for r in rows]
+    return "\n".join(out)
+
+
+# --- pictures --------------------------------------------------------------------------
+
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+INK = (40, 40, 40)          # BGR of text and axes
+GRID_INK = (225, 225, 225)  # BGR of grid lines
+# lap colours (BGR), distinct for up to ten laps, then repeated
+LAP_COLOURS = [(180, 119, 31), (14, 127, 255), (44, 160, 44), (40, 39, 214), (189, 103, 148),
+               (75, 86, 140), (194, 119, 227), (34, 189, 188), (207, 190, 23), (127, 127, 127)]
+LEAD_IN = (170, 170, 170)   # BGR of the path outside complete laps
+PICTURE_SIDE = 800          # [px] the larger side of the map area of laps.png
+LEGEND_WIDTH = 170          # [px] the legend column right of the map
+
+
+def nice_ticks(lo, hi, n=5):
+    """About n round tick values (1, 2, 2.5 or 5 x 10^k apart) within [lo, hi]."""
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
+        return [lo]
+    raw = (hi - lo) / max(1, n)
+    mag = 10 ** math.floor(math.log10(raw))
+    step = next(m * mag for m in (1, 2, 2.5, 5, 10) if m * mag >= raw)
+    first = math.ceil(lo / step - 1e-9) * step
+    return [round(first + k * step, 10) for k in range(int(math.floor((hi - first) / step + 1e-9)) + 1)]
+
+
+def round_down_125(v):
+    """The largest 1, 2 or 5 x 10^k not above v (v > 0)."""
+    mag = 10 ** math.floor(math.log10(v))
+    return max(m * mag for m in (1, 2, 5) if m * mag <= v * (1 + 1e-9))
+
+
+def _tick_text(v):
+    return f"{v:g}" if abs(v) < 1e5 else f"{v:.0e}"
+
+
+def draw_time_series(panels, width=820, panel_height=230, xlabel="simulated time [s]"):
+    """A BGR picture of panels stacked vertically over a shared x axis. Each panel is a
+    dict: title, ylabel, series [(t array [s], y array, BGR colour)], optional ylim
+    (lo, hi) and note (a text drawn in the panel, e.g. "no data")."""
+    left, right, top, bottom = 70, 20, 30, 45
+    img = np.full((len(panels) * panel_height, width, 3), 255, np.uint8)
+    ts = [np.asarray(t, float) for p in panels for t, _, _ in p["series"] if len(t)]
+    t_lo = min((t.min() for t in ts), default=0.0)
+    t_hi = max((t.max() for t in ts), default=1.0)
+    if t_hi <= t_lo:
+        t_hi = t_lo + 1.0
+    x0, x1 = left, width - right
+    for k, p in enumerate(panels):
+        oy = k * panel_height
+        y0, y1 = oy + top, oy + panel_height - bottom
+        ys = [np.asarray(y, float) for t, y, _ in p["series"] if len(t)]
+        lo, hi = p.get("ylim") or (min((y.min() for y in ys), default=0.0), max((y.max() for y in ys), default=1.0))
+        if hi <= lo:
+            lo, hi = lo - 0.5, hi + 0.5
+
+        def px(t, y, lo=lo, hi=hi, y0=y0, y1=y1):
+            return (np.round(x0 + (np.asarray(t) - t_lo) / (t_hi - t_lo) * (x1 - x0)).astype(np.int32),
+                    np.round(y1 - (np.asarray(y) - lo) / (hi - lo) * (y1 - y0)).astype(np.int32))
+
+        for v in nice_ticks(lo, hi, 4):
+            _, yy = px(t_lo, v)
+            cv2.line(img, (x0, int(yy)), (x1, int(yy)), GRID_INK, 1)
+            cv2.line(img, (x0 - 4, int(yy)), (x0, int(yy)), INK, 1)
+            txt = _tick_text(v)
+            (tw, th), _ = cv2.getTextSize(txt, FONT, 0.4, 1)
+            cv2.putText(img, txt, (x0 - 8 - tw, int(yy) + th // 2), FONT, 0.4, INK, 1, cv2.LINE_AA)
+        for v in nice_ticks(t_lo, t_hi, 8):
+            xx, _ = px(v, lo)
+            cv2.line(img, (int(xx), y0), (int(xx), y1), GRID_INK, 1)
+            cv2.line(img, (int(xx), y1), (int(xx), y1 + 4), INK, 1)
+            txt = _tick_text(v)
+            (tw, th), _ = cv2.getTextSize(txt, FONT, 0.4, 1)
+            cv2.putText(img, txt, (int(xx) - tw // 2, y1 + 8 + th), FONT, 0.4, INK, 1, cv2.LINE_AA)
+        cv2.rectangle(img, (x0, y0), (x1, y1), INK, 1)
+        for t, y, colour in p["series"]:
+            if len(t) > 1:
+                xs, yv = px(t, np.clip(y, lo, hi))
+                cv2.polylines(img, [np.stack([xs, yv], axis=1)], False, colour, 2, cv2.LINE_AA)
+        cv2.putText(img, f"{p['title']}   ({p['ylabel']})", (x0, oy + 20), FONT, 0.5, INK, 1, cv2.LINE_AA)
+        if p.get("note"):
+            cv2.putText(img, p["note"], (x0 + 12, y0 + 24), FONT, 0.5, (0, 0, 200), 1, cv2.LINE_AA)
+        (tw, _), _ = cv2.getTextSize(xlabel, FONT, 0.45, 1)
+        cv2.putText(img, xlabel, ((x0 + x1 - tw) // 2, oy + panel_height - 8), FONT, 0.45, INK, 1, cv2.LINE_AA)
+    return img
+
+
+def draw_laps(grid, path_xy, bounds, dock=None, visits_xy=(), title="", side=PICTURE_SIDE):
+    """A BGR picture of the map (a summit_nav_common.map_io.GridMap, or None for a blank
+    ground) cropped to its known cells and the path, with the truth path (N, 2 [m]) drawn
+    lap by lap (bounds from split_laps; lead-in and unfinished lap in grey), the dock
+    (x, y, yaw [rad]) as a square with its heading, and each dock visit (x, y) as a
+    numbered circle. A legend names the laps, and a scale bar gives metres."""
+    path_xy = np.asarray(path_xy, float).reshape(-1, 2)
+    pts = [path_xy] + ([np.asarray([dock[:2]])] if dock is not None else [])
+    if grid is not None:
+        res = grid.resolution
+        ox, oy, oyaw = grid.origin
+        known = np.argwhere(grid.data >= 0)
+        if len(known):
+            r0, c0 = known.min(axis=0)
+            r1, c1 = known.max(axis=0) + 1
+            c, s = math.cos(oyaw), math.sin(oyaw)
+            corners = np.array([[c0, r0], [c1, r0], [c0, r1], [c1, r1]], float) * res
+            pts.append(np.stack([ox + c * corners[:, 0] - s * corners[:, 1],
+                                 oy + s * corners[:, 0] + c * corners[:, 1]], axis=1))
+    allpts = np.concatenate([p for p in pts if len(p)]) if any(len(p) for p in pts) else np.zeros((1, 2))
+    margin = 1.0   # [m] around the drawn area
+    lo, hi = allpts.min(axis=0) - margin, allpts.max(axis=0) + margin
+    scale = side / max(hi - lo)   # [px/m]
+    w, h = int(math.ceil((hi[0] - lo[0]) * scale)), int(math.ceil((hi[1] - lo[1]) * scale))
+    img = np.full((h, w, 3), 255, np.uint8)
+
+    def px(x, y):
+        return (np.round((np.asarray(x) - lo[0]) * scale).astype(np.int32),
+                np.round(h - (np.asarray(y) - lo[1]) * scale).astype(np.int32))
+
+    if grid is not None:
+        grey = np.where(grid.data == 100, 0, np.where(grid.data < 0, 205,
+                                                      255 - np.clip(grid.data, 0, 100) * 2)).astype(np.uint8)
+        # the map's cell corners in picture pixels: an affine warp (origin yaw included)
+        c, s = math.cos(grid.origin[2]), math.sin(grid.origin[2])
+        res = grid.resolution
+        a = np.array([[c * res * scale, -s * res * scale, (grid.origin[0] - lo[0]) * scale],
+                      [-s * res * scale, -c * res * scale, h - (grid.origin[1] - lo[1]) * scale]])
+        img = cv2.cvtColor(cv2.warpAffine(grey, a, (w, h), flags=cv2.INTER_NEAREST,
+                                          borderValue=255), cv2.COLOR_GRAY2BGR)
+    cuts = [0] + list(bounds) + [len(path_xy)]
+    legend = []
+    for a, b in zip(cuts, cuts[1:]):
+        seg = path_xy[a:b + 1]
+        if len(seg) < 2:
+            continue
+        complete = a in bounds and b in bounds
+        colour = LAP_COLOURS[len(legend) % len(LAP_COLOURS)] if complete else LEAD_IN
+        xs, ys = px(seg[:, 0], seg[:, 1])
+        cv2.polylines(img, [np.stack([xs, ys], axis=1)], False, colour, 2, cv2.LINE_AA)
+        if complete:
+            legend.append((f"lap {len(legend) + 1}", colour))
+    if dock is not None:
+        cx, cy = px(dock[0], dock[1])
+        half = max(4, int(round(DOCK_RADIUS * scale)))
+        cv2.rectangle(img, (int(cx) - half, int(cy) - half), (int(cx) + half, int(cy) + half), (0, 140, 0), 2)
+        hx, hy = px(dock[0] + 0.5 * math.cos(dock[2]), dock[1] + 0.5 * math.sin(dock[2]))
+        cv2.arrowedLine(img, (int(cx), int(cy)), (int(hx), int(hy)), (0, 140, 0), 2, cv2.LINE_AA, tipLength=0.3)
+        cv2.putText(img, "dock", (int(cx) + half + 4, int(cy) - half), FONT, 0.5, (0, 120, 0), 1, cv2.LINE_AA)
+    for i, (x, y) in enumerate(visits_xy):
+        cx, cy = px(x, y)
+        cv2.circle(img, (int(cx), int(cy)), 9, (0, 0, 220), 2, cv2.LINE_AA)
+        cv2.putText(img, str(i + 1), (int(cx) + 10, int(cy) + 14), FONT, 0.45, (0, 0, 220), 1, cv2.LINE_AA)
+    if visits_xy:
+        legend.append((f"dock visits ({len(visits_xy)})", (0, 0, 220)))
+    if len(legend) > len(LAP_COLOURS) + 1:   # many laps: colours repeat, so name the range
+        legend = legend[:3] + [("...", INK)] + legend[-2:]
+    # the legend in a white column right of the map, so it hides no part of the track
+    img = np.hstack([img, np.full((h, LEGEND_WIDTH, 3), 255, np.uint8)])
+    for i, (text, colour) in enumerate(legend):
+        y = 44 + 18 * i
+        cv2.line(img, (w + 10, y - 4), (w + 35, y - 4), colour, 3)
+        cv2.putText(img, text, (w + 40, y), FONT, 0.45, INK, 1, cv2.LINE_AA)
+    # scale bar: a round length near a fifth of the width
+    bar = round_down_125((w / scale) / 5)
+    bx, by = 12, h - 14
+    cv2.line(img, (bx, by), (bx + int(bar * scale), by), INK, 3)
+    cv2.putText(img, f"{bar:g} m", (bx, by - 6), FONT, 0.45, INK, 1, cv2.LINE_AA)
+    cv2.putText(img, title, (10, 22), FONT, 0.55, INK, 1, cv2.LINE_AA)
+    return img
+
+
+def encode_png(img):
+    """PNG bytes of a BGR picture."""
+    ok, buf = cv2.imencode(".png", img)
+    if not ok:
+        raise ValueError("OpenCV could not encode the picture as PNG")
+    return buf.tobytes()
