@@ -27,7 +27,9 @@ CHAIN = [BASE, "my_summit_mapping", "my_summit_localization", "my_summit_path_pl
 # Python module -> rosdep key, for modules that are not ROS packages of the same name.
 ROSDEP = {"numpy": "python3-numpy", "scipy": "python3-scipy", "cv2": "python3-opencv",
           "yaml": "python3-yaml", "psutil": "python3-psutil", "numba": "python3-numba",
-          "PIL": "python3-pil", "pytest": "python3-pytest"}
+          "PIL": "python3-pil", "pytest": "python3-pytest",
+          # Debian ships diagnostic_updater's Python alone (no ROS package of that name)
+          "diagnostic_updater": "python3-diagnostic-updater"}
 # Modules that ship inside another ROS package.
 PROVIDED_BY = {"rosgraph": "rosgraph", "roslaunch": "roslaunch", "rosunit": "rosunit",
                "genpy": "genpy", "rostest": "rostest"}
