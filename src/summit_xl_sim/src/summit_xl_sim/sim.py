@@ -9,6 +9,10 @@ axis test). A blocked move does not happen: the robot keeps its pose, its veloci
 to zero, and one collision is counted per contact (a robot pushing against a wall for a
 second counts once: a new collision is counted only after the robot has moved
 CONTACT_RESET freely since the last blocked move).
+
+Battery (summit_xl_sim.battery): each robot's pack is stepped with its true velocity;
+the docks belong to the Simulation, and a robot standing still within ``dock_radius`` of
+one charges. An empty pack cuts the motors: the robot's command is dropped.
 """
 import math
 from dataclasses import dataclass, field
@@ -18,6 +22,7 @@ import numpy as np
 from summit_nav_common import geometry
 
 from . import robot as rb
+from .battery import Battery, near_dock
 from .laser_model import DEFAULT_LASER_MODEL, make_laser_model, report
 from .world import World, WorldError, rects_overlap
 
@@ -75,6 +80,7 @@ class RobotState:
     odom_vel: tuple = (0.0, 0.0, 0.0)
     rng: np.random.Generator = field(default=None, repr=False)
     range_model: object = field(default=None, repr=False)  # laser_model.IdealLaser / Utm30lxLaser
+    battery: Battery = field(default=None, repr=False)
 
     def rect(self):
         """Footprint as an oriented rectangle (cx, cy, yaw, half_length, half_width)."""
@@ -85,19 +91,28 @@ class RobotState:
 class Simulation:
     """Robots in a world, stepped in simulated time.
 
-    world: a World; seed: int for every random draw (odometry drift, laser noise).
+    world: a World; seed: int for every random draw (odometry drift, laser noise);
+    docks: charging docks [(x, y, yaw)] [m, m, rad], maybe none; dock_radius [m]: a
+    robot standing still this close to a dock's (x, y) charges.
     """
 
-    def __init__(self, world, seed=0):
+    def __init__(self, world, seed=0, docks=(), dock_radius=0.3):
         self.world = world
         self.time = 0.0
         self.robots = {}
         self._seed = seed
         self._samples = {}
+        self.docks = [tuple(float(v) for v in d) for d in docks]
+        if not (math.isfinite(dock_radius) and dock_radius > 0.0):
+            raise WorldError(f"dock_radius must be > 0 [m], got {dock_radius!r}")
+        self.dock_radius = float(dock_radius)
 
     # -- robots -------------------------------------------------------------------
-    def add_robot(self, name, x, y, yaw, drive="diff", params=None, laser=None):
-        """Spawn a robot; WorldError naming it when the pose is off the map or blocked."""
+    def add_robot(self, name, x, y, yaw, drive="diff", params=None, laser=None, battery=None):
+        """Spawn a robot; WorldError naming it when the pose is off the map or blocked.
+
+        battery: its Battery (default: a full pack with BatteryParams' defaults).
+        """
         if name in self.robots:
             raise WorldError(f"robot '{name}' already exists")
         if drive not in DRIVES:
@@ -111,7 +126,7 @@ class Simulation:
         state = RobotState(name=name, drive=drive, params=params, laser=laser,
                            pose=(float(x), float(y), geometry.wrap_angle(float(yaw))),
                            rng=np.random.default_rng([self._seed, len(self.robots)]),
-                           range_model=range_model)
+                           range_model=range_model, battery=battery or Battery())
         self._check_free(state, state.pose, spawning=True)
         self.robots[name] = state
         return state
@@ -198,9 +213,15 @@ class Simulation:
         self.time += dt
         for state in self.robots.values():
             cmd = state.cmd
-            if self.time - state.last_cmd_time > state.params.cmd_timeout:
-                cmd = (0.0, 0.0, 0.0)  # watchdog: stale command
+            battery = state.battery
+            if self.time - state.last_cmd_time > state.params.cmd_timeout or battery.empty:
+                cmd = (0.0, 0.0, 0.0)  # watchdog: stale command; or the pack cut the motors
             vel = rb.step_velocity(state.params, state.vel, cmd, dt)
+            # The pack sees the velocity the robot is asked to reach this step (a blocked
+            # move stalls the motors at that load for the step).
+            speed = math.hypot(vel[0], vel[1])
+            battery.step(dt, speed, vel[2],
+                         bool(self.docks) and near_dock(state.pose[0], state.pose[1], self.docks, self.dock_radius))
             if vel == (0.0, 0.0, 0.0):
                 state.vel = vel
                 state.odom_vel = vel
