@@ -30,7 +30,7 @@ from std_srvs.srv import Empty
 
 from summit_nav_common.ros.action_client import SimpleActionClient
 from my_summit_navigation import cruise as cr
-from my_summit_navigation.goals import move_base_goal
+from my_summit_navigation.goals import move_base_goal, wait_clock
 
 SERVER_WAIT = 60.0   # [s] for the move_base action server at the start
 LOOP_PERIOD = 0.1    # [s] wall: how long the loop waits for an event before ticking
@@ -115,6 +115,10 @@ class CruiseNode:
     def run(self, home=None):
         """Wait for move_base, cruise, publish the summary; returns the summary dict.
         home: a Stop, or a callable giving one once move_base is up (patrol's start pose)."""
+        # Under use_sim_time ROS time is 0 until /clock runs, and a ROS-time wait started
+        # then ends at once: wait (wall time) for the clock first.
+        if not wait_clock(SERVER_WAIT):
+            raise RuntimeError(f"no ROS time (/clock) within {SERVER_WAIT:.0f} s")
         if not self.client.wait_for_server(rospy.Duration(SERVER_WAIT)):
             raise RuntimeError(f"no move_base action server '{self.params['action']}' within {SERVER_WAIT:.0f} s")
         home = home() if callable(home) else home
