@@ -80,7 +80,9 @@ def build_stops(labels=None, book=None, poses=None, frame="map"):
             if not all(math.isfinite(v) for v in (x, y, yaw_deg)):
                 raise ValueError("not finite")
             stops.append(Stop(name, Spot.from_xy_yaw(x, y, math.radians(yaw_deg)), frame))
-        except (KeyError, TypeError, ValueError) as e:
+        except KeyError as e:
+            stops.append(Stop(name, None, frame, f"bad pose {entry!r}: expected [x, y, yaw_deg] (no key {e})"))
+        except (TypeError, ValueError) as e:
             stops.append(Stop(name, None, frame, f"bad pose {entry!r}: expected [x, y, yaw_deg] ({e})"))
     return stops
 
