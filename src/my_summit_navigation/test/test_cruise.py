@@ -165,10 +165,10 @@ def test_low_battery_mid_goal_docks_charges_and_resumes_at_the_same_waypoint():
     assert "resume at lap 1, 'b'" in out[0].text
     r.finish(cr.PREEMPTED, dt=0.2)           # the cancel confirmed: to the dock
     assert r.sends() == ["a", "b", "dock"]
-    assert r.cruise.status()[0] == cr.WARN and r.cruise.status()[2]["battery action"] == "going to the dock"
+    assert r.cruise.status()[0] == cr.WARN and dict(r.cruise.status().values)["battery action"] == "going to the dock"
     r.finish(dt=20.0)                        # docked
     assert r.cruise.activity == cr.CHARGING and r.cruise.dock_visits == 1
-    assert r.cruise.status()[2]["battery action"] == "charging"
+    assert dict(r.cruise.status().values)["battery action"] == "charging"
     r.battery(0.02, dt=10.0)                 # below critical, but at the dock: no stop
     assert not r.cruise.done
     for pct in (0.3, 0.6, 0.89):
@@ -247,7 +247,7 @@ def test_no_battery_topic_warns_once_and_cruises_then_picks_the_battery_up():
     r.tick(2.0)
     r.tick(2.0)
     assert len(r.logs(cr.WARN)) == 1 and "no battery data" in r.logs(cr.WARN)[0]
-    assert r.cruise.status()[2]["battery action"] == "no battery data"
+    assert dict(r.cruise.status().values)["battery action"] == "no battery data"
     r.finish()
     r.finish()
     assert r.sends() == ["a", "b", "c"]
@@ -300,12 +300,12 @@ def test_return_home_interrupts_and_ends_stopped():
 
 def test_the_diagnostic_values():
     r = Run(laps=2, dock=DOCK)
-    assert r.cruise.status()[1] == "waiting to start"
+    assert r.cruise.status().message == "waiting to start"
     r.start()
     r.battery(0.55)
     level, message, values = r.cruise.status()
     assert level == cr.OK and message == cr.CRUISING
-    assert values == {"state": "cruising", "lap": "1 of 2", "waypoint": "a", "battery action": "none",
+    assert dict(values) == {"state": "cruising", "lap": "1 of 2", "waypoint": "a", "battery action": "none",
                       "battery percentage": "55.0", "dock visits": "0", "reached": "0", "skipped": "0"}
 
 

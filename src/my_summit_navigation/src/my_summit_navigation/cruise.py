@@ -36,10 +36,10 @@ from dataclasses import dataclass, field
 import yaml
 
 from my_summit_localization.spots import Spot
+from summit_nav_common.diagnostic_checks import ERROR, OK, WARN, Check
 
 NEXT, RETRY, SKIP = "next", "retry", "skip"
 SUCCEEDED, ABORTED, PREEMPTED, REJECTED = 3, 4, 2, 5   # actionlib_msgs/GoalStatus
-OK, WARN, ERROR = 0, 1, 2                               # diagnostic_msgs/DiagnosticStatus levels
 
 # End states of a run (the summary's "state")
 COMPLETED, CRITICAL, DOCK_UNREACHABLE, STOPPED = "completed", "critical", "dock_unreachable", "stopped"
@@ -347,8 +347,8 @@ class Cruise:
         return "none"
 
     def status(self):
-        """(level, message, values) for the diagnostics: OK cruising or done, WARN while
-        retrying, recovering, going to charge or charging, ERROR on critical or
+        """The diagnostics' Check (level, message, values): OK cruising or done, WARN
+        while retrying, recovering, going to charge or charging, ERROR on critical or
         dock_unreachable."""
         if self.end_state in (CRITICAL, DOCK_UNREACHABLE):
             level, message = ERROR, f"{self.end_state}: {self.end_reason}"
@@ -369,7 +369,7 @@ class Cruise:
                   "dock visits": str(self.dock_visits),
                   "reached": str(self.log.reached),
                   "skipped": str(self.log.skipped)}
-        return level, message, values
+        return Check(level, message, tuple(values.items()))
 
     def summary(self, now):
         """The run's summary (JSON-ready dict); time_s counts to the end, or to now."""

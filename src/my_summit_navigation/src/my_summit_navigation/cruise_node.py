@@ -3,7 +3,8 @@ scripts/patrol.py, around the pure state machine my_summit_navigation.cruise.Cru
 
 It owns the move_base action client (summit_nav_common's SimpleActionClient, goals sent
 with done / active / feedback callbacks as in the tutorial), the battery subscriber, the
-costmap clearing, the latched ~summary and the "<node>: Cruise" diagnostic status. The
+costmap clearing, the latched ~summary and the "<node>: Cruise" diagnostic status
+(summit_nav_common's NodeDiagnostics, the check being Cruise.status). The
 callbacks only queue events; one loop feeds them and the clock to Cruise and carries out
 its commands, so Cruise itself is single-threaded.
 
@@ -21,14 +22,15 @@ import json
 import math
 import queue
 
-import diagnostic_updater
 import rospy
 from move_base_msgs.msg import MoveBaseAction
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import String
 from std_srvs.srv import Empty
 
+from summit_nav_common.diagnostic_checks import Check
 from summit_nav_common.ros.action_client import SimpleActionClient
+from summit_nav_common.ros.diagnostics import NodeDiagnostics
 from my_summit_navigation import cruise as cr
 from my_summit_navigation.goals import move_base_goal, wait_clock
 
@@ -70,9 +72,8 @@ class CruiseNode:
         self.client = SimpleActionClient(params["action"], MoveBaseAction)
         self.summary_pub = rospy.Publisher("~summary", String, queue_size=1, latch=True)
         self.battery_sub = rospy.Subscriber(params["battery_topic"], BatteryState, self._on_battery, queue_size=10)
-        self.updater = diagnostic_updater.Updater()
-        self.updater.setHardwareID(rospy.get_name().lstrip("/"))
-        self.updater.add("Cruise", self._diagnose)
+        self.diagnostics = NodeDiagnostics(hardware_id=rospy.get_name().lstrip("/"))
+        self.diagnostics.add("Cruise", self._diagnose)
         self._last_activity = None
 
     # -- callbacks: queue events only --------------------------------------------------------
@@ -101,15 +102,10 @@ class CruiseNode:
         self.events.put(("home",))
         return True, "interrupting the round; going home"
 
-    def _diagnose(self, stat):
+    def _diagnose(self, _now):
         if self.cruise is None:
-            stat.summary(cr.WARN, f"waiting for the move_base action server '{self.params['action']}'")
-            return stat
-        level, message, values = self.cruise.status()
-        stat.summary(level, message)
-        for key, value in values.items():
-            stat.add(key, value)
-        return stat
+            return Check(cr.WARN, f"waiting for the move_base action server '{self.params['action']}'")
+        return self.cruise.status()
 
     # -- the loop ----------------------------------------------------------------------------
     def run(self, home=None):
@@ -142,9 +138,7 @@ class CruiseNode:
 
     def spin(self):
         """After the run: keep the diagnostics (and the latched summary) up until shutdown."""
-        while not rospy.is_shutdown():
-            self.updater.update()
-            rospy.sleep(1.0)
+        rospy.spin()
 
     def _now(self):
         return rospy.Time.now().to_sec()
@@ -190,10 +184,9 @@ class CruiseNode:
             rospy.logwarn(f"could not clear the costmaps ({name}): {e}")
 
     def _update_diagnostics(self):
-        """Publish at once when the activity changes, else at the updater's period."""
+        """Publish at once when the activity changes (NodeDiagnostics' timer publishes
+        at ~diagnostic_period otherwise)."""
         activity = (self.cruise.activity, self.cruise.end_state)
         if activity != self._last_activity:
             self._last_activity = activity
-            self.updater.force_update()
-        else:
-            self.updater.update()
+            self.diagnostics.updater.force_update()
