@@ -79,6 +79,18 @@ def test_laps_are_cut_at_each_return_through_the_gate():
     assert_allclose(np.diff(t[bounds]), 60.0, atol=0.2)
 
 
+def test_a_cruise_lap_ends_at_its_last_waypoint():
+    """The cruise's lap runs from its first waypoint (the gate, at 15 s of a 60 s circle) to
+    its last (at 45 s): one lap of one run is complete, from 15 s to 45 s (the robot stops
+    short of the gate)."""
+    t = np.arange(0.0, 50.0, 0.1)
+    x, y, _ = circle_track(t)
+    at = lambda s: tuple(np.ravel(v)[0] for v in circle_track(np.array([s]))[:2])  # noqa: E731
+    bounds = h.split_laps(np.c_[x, y], at(15.0), finish=at(45.0))
+    assert len(bounds) == 2
+    assert_allclose(t[bounds], [15.0, 45.0], atol=0.15)
+
+
 def test_a_robot_starting_off_the_gate_leads_in():
     t = np.arange(0.0, 130.0, 0.1)
     x, y, _ = circle_track(t)
@@ -97,7 +109,10 @@ def test_dock_visits_need_a_stop_within_the_radius():
     dock = (x[t > 20][0] + 0.1, y[t > 20][0], 0.0)       # ... 0.1 m from the dock
     visits = h.dock_visits(t, np.c_[x, y], speed, dock)
     assert len(visits) == 1 and 18.5 < visits[0][0] <= 20.1 and 21.8 <= visits[0][1] < 23.0
-    # the second lap passes the dock without stopping: no visit
+    # the second lap passes the dock without stopping: no visit; a robot that starts
+    # standing at the dock has not visited it
+    speed[:5] = 0.0
+    assert h.dock_visits(t, np.c_[x, y], speed, (x[0], y[0], 0.0)) == []
 
 
 def test_dock_argument_and_waypoints_file(tmp_path):
@@ -107,9 +122,10 @@ def test_dock_argument_and_waypoints_file(tmp_path):
         with pytest.raises(h.HealthError, match="--dock"):
             h.parse_dock(bad)
     f = tmp_path / "wp.yaml"
-    f.write_text("dock: {x: -8, y: 1, yaw_deg: 180}\nwaypoints:\n  - [2, 3, 0]\n  - [4, 3, 90]\n")
-    dock, first = h.read_waypoints(str(f))
-    assert_allclose(dock, (-8, 1, math.pi)) and first[:2] == (2.0, 3.0)
+    f.write_text("dock: {x: -8, y: 1, yaw_deg: 180}\nwaypoints:\n  - [2, 3, 0]\n  - {x: 4, y: 3, yaw_deg: 90}\n")
+    dock, first, last = h.read_waypoints(str(f))
+    assert_allclose(dock, (-8, 1, math.pi))
+    assert first[:2] == (2.0, 3.0) and last[:2] == (4.0, 3.0)
     with pytest.raises(h.HealthError, match="nope.yaml"):
         h.read_waypoints(str(tmp_path / "nope.yaml"))
     f.write_text("dock: [1, 2]\n")
@@ -199,3 +215,14 @@ def test_pictures_are_drawn_and_encoded():
                               "series": [(truth[:, 0], 100 * np.ones(len(truth)), (0, 0, 200))]},
                              {"title": "speed", "ylabel": "m/s", "series": [], "note": "no data"}])
     assert ts.shape[0] == 2 * 230 and np.any(np.all(ts == (0, 0, 200), axis=2))
+
+
+def test_truth_is_taken_into_the_map_frame():
+    truth = [(0.0, 3.0, 8.0, 0.5, 0.2)]
+    assert_allclose(h.truth_in_map(truth, (0.0, 0.0, 0.0)), [truth[0]])
+    moved = h.truth_in_map(truth, (2.0, 7.0, 0.0))
+    assert_allclose(moved, [(0.0, 1.0, 1.0, 0.5, 0.2)])
+    turned = h.truth_in_map(truth, (3.0, 8.0, math.pi / 2))
+    assert_allclose(turned[0, 1:4], (0.0, 0.0, 0.5 - math.pi / 2), atol=1e-12)
+    with pytest.raises(h.HealthError, match="--map-in-world"):
+        h.parse_pose_arg("2,7", "--map-in-world")

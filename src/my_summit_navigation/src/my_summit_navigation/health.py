@@ -31,6 +31,8 @@ import cv2
 import numpy as np
 import yaml
 
+from summit_nav_common.geometry import relative
+
 # The tutorial's thresholds (section 7.1), and SPEC.md's memory bound for every node.
 LOCALIZATION_MEDIAN_MAX = 0.1   # [m] "localization error < 0.1 m"
 LOCALIZATION_WORST_MAX = 0.2    # [m] issue 40: no pose estimate worse than this
@@ -166,12 +168,15 @@ def cpu_percent(first, last):
 
 # --- laps and dock ---------------------------------------------------------------------
 
-def split_laps(xy, gate, gate_radius=GATE_RADIUS, leave=GATE_LEAVE):
+def split_laps(xy, gate, gate_radius=GATE_RADIUS, leave=GATE_LEAVE, finish=None):
     """Indices of the path's (N, 2 [m]) lap boundaries: in each pass within gate_radius of
     gate (x, y) made after having been more than leave [m] from it since the previous
     boundary, the sample closest to the gate (so every lap is cut at the same place);
-    the pass the path starts in is a boundary too. The samples before the first boundary
-    lead in, those after the last are an unfinished lap."""
+    the pass the path starts in is a boundary too. finish (x, y), when given and not the
+    gate (a cruise whose lap runs from its first waypoint to its last), ends the last lap:
+    the closest approach to it after the last boundary, once the robot was more than leave
+    from both. The samples before the first boundary lead in, those after the last are an
+    unfinished lap."""
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) == 0:
         return []
@@ -190,13 +195,25 @@ def split_laps(xy, gate, gate_radius=GATE_RADIUS, leave=GATE_LEAVE):
             bounds.append(i + int(np.argmin(d[i:j + 1])))
             armed = False
         i = j + 1
+    if finish is not None and bounds and math.hypot(finish[0] - gate[0], finish[1] - gate[1]) > gate_radius:
+        last = bounds[-1]
+        df = np.hypot(xy[last:, 0] - finish[0], xy[last:, 1] - finish[1])
+        away = np.flatnonzero((d[last:] > leave) & (df > leave))
+        if len(away):
+            near = np.flatnonzero(df[away[0]:] <= gate_radius)
+            if len(near):
+                k = away[0] + near[0]
+                run_end = k + (np.flatnonzero(df[k:] > gate_radius)[0] if np.any(df[k:] > gate_radius)
+                               else len(df) - k)
+                bounds.append(last + k + int(np.argmin(df[k:run_end])))
     return bounds
 
 
 def dock_visits(t, xy, speed, dock, radius=DOCK_RADIUS, stop_speed=STOP_SPEED):
     """[(t_in, t_out)] [s] of each visit to the dock (x, y[, yaw]): a stay within radius
     [m] of it during which the robot stood (speed [m/s] below stop_speed) at least once;
-    t_in/t_out are the first and last samples of the stay."""
+    t_in/t_out are the first and last samples of the stay. A stay the path starts in is
+    where the robot was when the report began, not a visit."""
     t = np.asarray(t, dtype=np.float64).reshape(-1)
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     speed = np.asarray(speed, dtype=np.float64).reshape(-1)
@@ -209,21 +226,39 @@ def dock_visits(t, xy, speed, dock, radius=DOCK_RADIUS, stop_speed=STOP_SPEED):
         j = i
         while j + 1 < n and inside[j + 1]:
             j += 1
-        if np.any(speed[i:j + 1] < stop_speed):
+        if i > 0 and np.any(speed[i:j + 1] < stop_speed):
             visits.append((float(t[i]), float(t[j])))
         i = j + 1
     return visits
 
 
-def parse_dock(text):
-    """(x [m], y [m], yaw [rad]) of a --dock argument "x,y,yaw_deg"; HealthError otherwise."""
+def truth_in_map(truth, map_in_world):
+    """The truth samples (N, 5: stamp, x, y, yaw, speed) taken from the simulator's world
+    frame into the map frame, whose pose in the world is map_in_world (x [m], y [m],
+    yaw [rad]): map_pose = inverse(map_in_world) (+) world_pose. The identity when the map
+    is the world (a world image served as the map, as on the race track); the course's
+    committed SLAM map sits at the spawn pose (2, 7, 0)."""
+    tr = np.array(truth, dtype=np.float64).reshape(-1, 5)
+    if len(tr):
+        tr[:, 1:4] = relative(map_in_world, tr[:, 1:4])
+    return tr
+
+
+def parse_pose_arg(text, flag):
+    """(x [m], y [m], yaw [rad]) of a command-line pose "x,y,yaw_deg"; HealthError naming
+    the flag otherwise."""
     try:
         parts = [float(p) for p in str(text).split(",")]
     except ValueError:
         parts = []
     if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
-        raise HealthError(f"--dock {text!r}: expected x,y,yaw_deg (three numbers, e.g. 1.5,-2,90)")
+        raise HealthError(f"{flag} {text!r}: expected x,y,yaw_deg (three numbers, e.g. 1.5,-2,90)")
     return parts[0], parts[1], math.radians(parts[2])
+
+
+def parse_dock(text):
+    """(x [m], y [m], yaw [rad]) of a --dock argument "x,y,yaw_deg"; HealthError otherwise."""
+    return parse_pose_arg(text, "--dock")
 
 
 def _pose_entry(entry, where):
@@ -243,7 +278,7 @@ def _pose_entry(entry, where):
 
 
 def read_waypoints(path):
-    """(dock pose or None, first waypoint pose or None) of a waypoints YAML: a mapping with
+    """(dock, first waypoint, last waypoint), each a pose or None, of a waypoints YAML: a mapping with
     ``dock:`` and ``waypoints:`` (each [x, y, yaw_deg] or {x, y, yaw_deg}); HealthError
     naming the file when it is missing or malformed."""
     try:
@@ -260,7 +295,8 @@ def read_waypoints(path):
     if not isinstance(points, list):
         raise HealthError(f"{path}: 'waypoints' is not a list")
     first = _pose_entry(points[0], f"{path}: waypoints[0]") if points else None
-    return dock, first
+    last = _pose_entry(points[-1], f"{path}: waypoints[-1]") if points else None
+    return dock, first, last
 
 
 # --- the report ------------------------------------------------------------------------
@@ -269,12 +305,13 @@ def _round(v, nd=4):
     return None if v is None else round(float(v), nd)
 
 
-def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=None):
+def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=None, finish=None):
     """The health.json dictionary of a Recording between t_start and t_end (simulated [s]).
 
     nodes: {name: {"pid", "cpu_percent", "cpu_s_per_sim_s", "peak_rss_mb"}} from the
     adapter; dock: (x, y, yaw [rad]) or None; gate: (x, y) of the lap gate, default the
-    first truth position; summary: the cruise node's parsed summary or None.
+    first truth position; finish: (x, y) where the last lap ends (split_laps), default the
+    gate; summary: the cruise node's parsed summary or None.
     """
     truth = np.asarray(rec.truth, dtype=np.float64).reshape(-1, 5)
     truth = truth[np.argsort(truth[:, 0], kind="stable")]
@@ -311,8 +348,9 @@ def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=
                         "max_speed_m_s": _round(truth[:, 4].max(), 3) if len(truth) else None}
     if gate is None and len(truth):
         gate = tuple(truth[0, 1:3])
-    bounds = split_laps(xy, gate) if gate is not None else []
+    bounds = split_laps(xy, gate, finish=finish) if gate is not None else []
     report["laps"] = {"gate": [_round(gate[0], 3), _round(gate[1], 3)] if gate is not None else None,
+                      "finish": None if finish is None else [_round(finish[0], 3), _round(finish[1], 3)],
                       "completed": max(0, len(bounds) - 1),
                       "times_s": [_round(truth[b, 0] - truth[a, 0], 2) for a, b in zip(bounds, bounds[1:])]}
     visits = dock_visits(truth[:, 0], xy, truth[:, 4], dock) if dock is not None else []
