@@ -198,6 +198,21 @@ SECTION_RESULTS = {
                             "runs": [{"precision": 0.99, "recall": 0.99, "sim_s": 99.0}]}},
     "patrol": {"rounds": 10, "spots_expected": 30, "reached": 30, "skipped": 0, "collisions": 0,
                "box_clearance_needed_m": 0.46, "boxes": [{"min_dist": 0.64}, {"min_dist": 0.67}]},
+    "race_track": {"capacity_wh": 10.0,
+                   "cruise": {"laps": 10, "speed": 1.0, "waypoints_per_lap": 13, "reached": 129,
+                              "skipped": [{"waypoint": "narrow_exit", "lap": 2, "reason": "stuck"}], "accounted": 130,
+                              "collisions": 0, "charges": 3,
+                              "low_battery_events": [{"ok": True}, {"ok": True}, {"ok": False}],
+                              "box": {"dropped_s": 400.0, "min_centre_dist_m": 0.6, "needed_m": 0.39, "ok": True},
+                              "health": {"localization": {"median_m": 0.03, "worst_m": 0.25},
+                                         "planning": {"median_s": 0.01, "worst_s": 0.3},
+                                         "control_rate": {"mean_hz": 19.0, "p5_hz": 12.0},
+                                         "nodes": {"/move_base": {"cpu_percent": 30.0, "peak_rss_mb": 290.0},
+                                                   "/amcl": {"cpu_percent": 12.0, "peak_rss_mb": 105.0}}}},
+                   "adaptive_off": {"summary": {"lap_times_s": [158.0, 160.0]}, "least_clearance_m": 0.31,
+                                    "collisions": 0, "ok": True},
+                   "adaptive_on": {"summary": {"lap_times_s": [170.0, 171.0]}, "least_clearance_m": 0.35,
+                                   "collisions": 0, "ok": True}},
     "multi_robot": {"lesson": {"amcl": {"runs_passed": 3, "runs": 3, "goals_reached": 6, "goals": 6, "collisions": 0,
                                         "median_xy_error_m": 0.059, "max_xy_error_m": 0.1}},
                     "scale": {"rtf_threshold": 1.0, "max_robots_at_real_time": 4,
@@ -218,6 +233,7 @@ EXPECTED_MET = {
     "stack_cpu": [True, None, False, None, None],  # 0.571 <= 0.6; a collision
     "explore": [True, True],
     "patrol": [True],
+    "race_track": [False, False, True, True, True, None],  # a resume missed; worst error 0.25 > 0.2
     "multi_robot": [True, None],
     "e2e": [False, False],  # 9 of 10; amcl skipped 3 scans
 }

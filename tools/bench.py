@@ -51,6 +51,11 @@ beside each time. Sections:
               collisions, simulated time, map precision / recall
   patrol      the patrol: 10 rounds over table, room, turtle with a box dropped on the route
               twice: spots reached / skipped, collisions, the boxes kept clear of
+  race_track  the race-track tutorial (issue 40): 10 laps at 1x with a battery small enough for
+              at least two charging stops and a box on the narrow section (waypoints reached /
+              skipped, collisions, each low battery docked and resumed, nav_health's
+              localization error, planning time, control rate, CPU per node); 2 laps with the
+              adaptive parameters off and on at 2x (lap time, least clearance to a wall)
   multi_robot the multi-robot lesson (both robots' goals, amcl and fake_localization) and
               the number of robots (amcl + move_base each) run at >= 1x real time
   e2e         (only with --only e2e) the end-to-end rostest once per seed 1..10 at 4x real time,
@@ -411,6 +416,28 @@ def bench_patrol():
         return json.load(f)
 
 
+RACE_LAPS = 10
+RACE_CAPACITY_WH = 10.0  # [Wh] a lap takes ~20 % of it: 10 laps need at least two charging stops
+ADAPTIVE_LAPS = 2
+ADAPTIVE_SPEED = 2.0     # the lap times are in simulated time; 2x keeps the comparison short
+
+
+def bench_race_track():
+    """bench_race_track.py: the long cruise with charging stops and a box, then the adaptive
+    parameters off and on."""
+    script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_race_track.py")
+    runs = {"cruise": ["--laps", str(RACE_LAPS), "--speed", "1", "--box", "--capacity-wh", str(RACE_CAPACITY_WH)],
+            "adaptive_off": ["--laps", str(ADAPTIVE_LAPS), "--speed", str(ADAPTIVE_SPEED)],
+            "adaptive_on": ["--laps", str(ADAPTIVE_LAPS), "--speed", str(ADAPTIVE_SPEED), "--adaptive"]}
+    res = {"capacity_wh": RACE_CAPACITY_WH}
+    for name, extra in runs.items():
+        path = os.path.join(OUT, f"bench_race_track_{name}.json")
+        subprocess.run([sys.executable, script, "--json", path] + extra)
+        with open(path) as f:
+            res[name] = json.load(f)
+    return res
+
+
 def bench_multi_robot(runs):
     script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_multi_robot.py")
     out = subprocess.run([sys.executable, script, "--runs", str(runs), "--window", "30"], check=True,
@@ -482,7 +509,7 @@ def main():
         print(json.dumps(bench_sim_rtf_once(profile=args.profile)))
         return 0
     only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_sim", "amcl", "planning", "stack_cpu", "explore", "patrol",
-                         "multi_robot"]
+                         "race_track", "multi_robot"]
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
         ap.error(f"unknown section(s) {unknown}; known: {', '.join(bench_report.SECTIONS)}")
@@ -515,6 +542,7 @@ def main():
         "stack_cpu": lambda: bench_stack_cpu(max(1, min(args.runs, 3))),
         "explore": lambda: bench_explore(args.explore_worlds),
         "patrol": bench_patrol,
+        "race_track": bench_race_track,
         "multi_robot": lambda: bench_multi_robot(min(args.runs, 3)),
         "e2e": bench_e2e,
     }

@@ -57,6 +57,9 @@ SECTIONS = {
                   "collisions; where move_base's time goes (one profiled run)"),
     "explore": "frontier exploration (explore.launch, real time)",
     "patrol": "the patrol: 10 rounds x 3 spots, a box dropped on the route twice (real time)",
+    "race_track": ("the race-track tutorial as a deployed robot: 10 laps at 1x with charging stops and a box on "
+                   "the narrow section, the tutorial's performance table (nav_health), the adaptive parameters "
+                   "off and on"),
     "multi_robot": "the multi-robot lesson and the number of robots at >= 1x real time",
     "e2e": "the end-to-end rostest (the course project) once per seed 1..10, faster than real time",
 }
@@ -514,6 +517,71 @@ def rows_patrol(res):
                 and bool(res["boxes"]) and all(b["min_dist"] > clear for b in res["boxes"]))]
 
 
+TUTORIAL_LOC_MEDIAN, TUTORIAL_LOC_WORST = 0.1, 0.2   # [m] the race-track tutorial's 7.1 (+ issue 40's worst)
+TUTORIAL_PLAN_S, TUTORIAL_RATE_HZ, TUTORIAL_CPU_PERCENT = 1.0, 10.0, 70.0
+
+
+def rows_race_track(res):
+    c = res["cruise"]
+    n_expected = c["laps"] * c["waypoints_per_lap"]
+    lows = c["low_battery_events"]
+    resumed = sum(1 for e in lows if e["ok"])
+    box = c.get("box") or {}
+    box_text = f"{box['min_centre_dist_m']:.2f} m from it (> {box['needed_m']:.2f})" if box.get("dropped_s") \
+        else "not dropped"
+    out = [row(f"race track, {c['laps']} laps at {c['speed']:g}x, battery {res['capacity_wh']:g} Wh, a box on the "
+               "narrow section: waypoints reached / skipped (each with a reason), collisions, charging stops "
+               "(resumed at the interrupted waypoint), robot centre to the box",
+               f"{c['reached']} / {len(c['skipped'])} of {n_expected}, {c['collisions']}, {c['charges']} "
+               f"({resumed} of {len(lows)}), {box_text}",
+               {"reached": c["reached"], "skipped": len(c["skipped"]), "expected": n_expected,
+                "collisions": c["collisions"], "charges": c["charges"], "low_battery_events": len(lows),
+                "resumed": resumed, "box_min_centre_dist_m": box.get("min_centre_dist_m")},
+               "all accounted for, 0, >= 2 (all resumed), box never touched",
+               c["accounted"] == n_expected and c["collisions"] == 0 and c["charges"] >= 2 and lows
+               and resumed == len(lows) and bool(box.get("ok")))]
+    h = c.get("health") or {}
+    loc, plan, rate, nodes = h.get("localization"), h.get("planning"), h.get("control_rate"), h.get("nodes") or {}
+    if loc:
+        out.append(row("... localization error against the truth (nav_health), median / worst",
+                       f"{loc['median_m']:.3f} / {loc['worst_m']:.3f} m", {"median_m": loc["median_m"],
+                                                                           "worst_m": loc["worst_m"]},
+                       f"< {TUTORIAL_LOC_MEDIAN} / < {TUTORIAL_LOC_WORST} m",
+                       loc["median_m"] < TUTORIAL_LOC_MEDIAN and loc["worst_m"] < TUTORIAL_LOC_WORST))
+    if plan:
+        out.append(row("... planning time (move_base's Global planner diagnostics), median / worst",
+                       f"{plan['median_s']:.3f} / {plan['worst_s']:.3f} s",
+                       {"median_s": plan["median_s"], "worst_s": plan["worst_s"]},
+                       f"< {TUTORIAL_PLAN_S:g} s", plan["worst_s"] < TUTORIAL_PLAN_S))
+    if rate:
+        out.append(row("... control rate (cmd_vel while a goal is active), mean / 5th percentile of 1 s windows",
+                       f"{rate['mean_hz']:.1f} / {rate['p5_hz']:.1f} Hz",
+                       {"mean_hz": rate["mean_hz"], "p5_hz": rate["p5_hz"]},
+                       f">= {TUTORIAL_RATE_HZ:g} Hz", rate["mean_hz"] >= TUTORIAL_RATE_HZ))
+    if nodes:
+        busiest = max(nodes, key=lambda n: nodes[n]["cpu_percent"])
+        rss = max(nodes, key=lambda n: nodes[n]["peak_rss_mb"])
+        out.append(row("... CPU per node (% of one core), the busiest; the largest peak RSS",
+                       f"{busiest} {nodes[busiest]['cpu_percent']:.0f} %; {rss} {nodes[rss]['peak_rss_mb']:.0f} MB",
+                       {n: {"cpu_percent": v["cpu_percent"], "peak_rss_mb": v["peak_rss_mb"]}
+                        for n, v in nodes.items()},
+                       f"< {TUTORIAL_CPU_PERCENT:g} % each", nodes[busiest]["cpu_percent"] < TUTORIAL_CPU_PERCENT))
+    cells, values = [], {}
+    for name in ("adaptive_off", "adaptive_on"):
+        r = res.get(name)
+        if not r:
+            continue
+        times = (r.get("summary") or {}).get("lap_times_s") or []
+        med = statistics.median(times) if times else None
+        values[name] = {"lap_time_median_s": med, "least_clearance_m": r["least_clearance_m"],
+                        "collisions": r["collisions"], "ok": r["ok"]}
+        cells.append(f"{name.split('_')[1]}: {_fmt(med, '.1f')} s, {r['least_clearance_m']:.2f} m")
+    if cells:
+        out.append(row("adaptive parameters off / on: lap time median (simulated), least footprint clearance to "
+                       "a wall", "; ".join(cells), values))
+    return out
+
+
 def rows_multi_robot(res):
     out = []
     for loc, r in res.get("lesson", {}).items():
@@ -559,7 +627,7 @@ ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_c
         "slam_bag_peer": rows_slam_bag_peer, "slam_replay_peer": rows_slam_replay_peer, "slam_sim": rows_slam_sim,
         "amcl": rows_amcl, "planning": rows_planning,
         "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore,
-        "patrol": rows_patrol,
+        "patrol": rows_patrol, "race_track": rows_race_track,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e}
 
 
