@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """rostest: the navigation stack's /diagnostics_agg (issue 40, the tutorial's monitoring step).
 
-With move_base.launch (simulator, map_server, amcl, move_base) and diagnostics.launch:
+With move_base.launch (simulator, map_server, amcl, move_base; the aggregator comes with sim.launch):
 1. /diagnostics_agg has "/Navigation Stack" with its children, amcl's "Standard
    deviation" with the real amcl's keys and move_base's four checks; the top level reads
    OK once the stack is up (/diagnostics_toplevel_state).
