@@ -33,10 +33,9 @@ Also here: ``build_stops`` (the patrol list from spot labels or poses),
 import math
 from dataclasses import dataclass, field
 
-import yaml
-
 from my_summit_localization.spots import Spot
 from summit_nav_common.diagnostic_checks import ERROR, OK, WARN, Check
+from summit_nav_common.files import load_yaml
 
 NEXT, RETRY, SKIP = "next", "retry", "skip"
 SUCCEEDED, ABORTED, PREEMPTED, REJECTED = 3, 4, 2, 5   # actionlib_msgs/GoalStatus
@@ -102,13 +101,7 @@ def load_waypoints(path, frame="map"):
     ``waypoints`` list, no usable waypoint at all or a bad ``dock`` raise
     WaypointFileError naming the file and the entry. dock is a Stop named "dock" or None.
     """
-    try:
-        with open(path, encoding="utf-8") as f:
-            doc = yaml.safe_load(f)
-    except OSError as e:
-        raise WaypointFileError(f"waypoint file {path}: cannot read it ({e.strerror or e})") from e
-    except yaml.YAMLError as e:
-        raise WaypointFileError(f"waypoint file {path}: not YAML ({e})") from e
+    doc = load_yaml(path, WaypointFileError, "waypoint file")
     found = doc.get("waypoints") if isinstance(doc, dict) else doc
     if not isinstance(found, list) or not found or not isinstance(doc, dict):
         raise WaypointFileError(f"waypoint file {path}: expected a non-empty list 'waypoints: "

@@ -29,8 +29,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-import yaml
-
+from summit_nav_common.files import load_yaml
 from summit_nav_common.geometry import relative
 
 # The tutorial's thresholds (section 7.1), and SPEC.md's memory bound for every node.
@@ -281,13 +280,7 @@ def read_waypoints(path):
     """(dock, first waypoint, last waypoint), each a pose or None, of a waypoints YAML: a mapping with
     ``dock:`` and ``waypoints:`` (each [x, y, yaw_deg] or {x, y, yaw_deg}); HealthError
     naming the file when it is missing or malformed."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            doc = yaml.safe_load(f)
-    except OSError as e:
-        raise HealthError(f"--waypoints {path}: cannot read it: {e.strerror}") from None
-    except yaml.YAMLError as e:
-        raise HealthError(f"--waypoints {path}: not valid YAML: {e}") from None
+    doc = load_yaml(path, HealthError, "--waypoints")
     if not isinstance(doc, dict):
         raise HealthError(f"--waypoints {path}: expected a mapping with 'dock' and 'waypoints' keys")
     dock = _pose_entry(doc["dock"], f"{path}: dock") if doc.get("dock") is not None else None

@@ -18,8 +18,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
-import yaml
-
+from summit_nav_common.files import load_yaml
 from summit_nav_common.params import unread_note
 
 from .cost_values import FREE_SPACE, NO_INFORMATION
@@ -297,13 +296,7 @@ def move_base_params(ns, where="move_base"):
 
 
 def _read(path):
-    try:
-        with open(path) as f:
-            doc = yaml.safe_load(f)
-    except OSError as e:
-        raise ParamError(f"{path}: cannot read: {e}") from None
-    except yaml.YAMLError as e:
-        raise ParamError(f"{path}: malformed YAML: {e}") from None
+    doc = load_yaml(path, ParamError)
     if doc is None:
         return {}
     if not isinstance(doc, dict):

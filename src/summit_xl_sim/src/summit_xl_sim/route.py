@@ -15,8 +15,7 @@ import math
 
 import cv2
 import numpy as np
-import yaml
-
+from summit_nav_common.files import load_yaml
 from summit_nav_common.map_io import FREE, OCCUPIED
 
 
@@ -46,13 +45,7 @@ def _pose(entry, where, named=False):
 def load_route(path):
     """Read a route YAML; returns {'waypoints': [(name, x, y, yaw_deg)], 'dock': (x, y,
     yaw_deg), 'start': (x, y, yaw_deg)} (dock and start None when absent)."""
-    try:
-        with open(path) as f:
-            doc = yaml.safe_load(f)
-    except OSError as e:
-        raise RouteError(f"{path}: {e}") from None
-    except yaml.YAMLError as e:
-        raise RouteError(f"{path}: malformed YAML: {e}") from None
+    doc = load_yaml(path, RouteError)
     if not isinstance(doc, dict) or not isinstance(doc.get("waypoints"), list) or not doc["waypoints"]:
         raise RouteError(f"{path}: expected a mapping with a non-empty list 'waypoints'")
     route = {"waypoints": [_pose(w, f"{path}: waypoints[{i}]", named=True)

@@ -17,8 +17,7 @@ import math
 
 import cv2
 import numpy as np
-import yaml
-
+from summit_nav_common.files import load_yaml
 from summit_nav_common.map_io import PGM_FREE, PGM_OCCUPIED, PGM_UNKNOWN, GridMap, MapError, save_map, image_to_grid
 
 SHIFT = 4                 # OpenCV fixed-point bits for sub-pixel drawing
@@ -41,13 +40,7 @@ def _num_list(value, n, where):
 
 def load_description(path):
     """Read and validate a world description YAML; returns a dict."""
-    try:
-        with open(path) as f:
-            doc = yaml.safe_load(f)
-    except OSError as e:
-        raise WorldDescriptionError(f"{path}: {e}") from None
-    except yaml.YAMLError as e:
-        raise WorldDescriptionError(f"{path}: malformed YAML: {e}") from None
+    doc = load_yaml(path, WorldDescriptionError)
     if not isinstance(doc, dict):
         raise WorldDescriptionError(f"{path}: expected a mapping")
     for key in ("name", "resolution", "origin", "size", "wall_thickness"):
