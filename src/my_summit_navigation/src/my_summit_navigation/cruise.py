@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 from my_summit_localization.spots import Spot
 from summit_nav_common.diagnostic_checks import ERROR, OK, WARN, Check
-from summit_nav_common.files import load_yaml
+from summit_nav_common.route import RouteError, parse_pose, read_route
 
 NEXT, RETRY, SKIP = "next", "retry", "skip"
 SUCCEEDED, ABORTED, PREEMPTED, REJECTED = 3, 4, 2, 5   # actionlib_msgs/GoalStatus
@@ -69,21 +69,18 @@ def build_stops(labels=None, book=None, poses=None, frame="map"):
             stops.append(Stop(str(label), spot, spot_frame or frame, refusal))
         return stops
     for i, entry in enumerate(poses or []):
-        name = f"pose {i + 1}"
+        name = str(entry.get("name", f"pose {i + 1}")) if isinstance(entry, dict) else f"pose {i + 1}"
         try:
-            if isinstance(entry, dict):
-                name = str(entry.get("name", name))
-                x, y, yaw_deg = (float(entry[k]) for k in ("x", "y", "yaw_deg"))
-            else:
-                x, y, yaw_deg = (float(v) for v in entry)
-            if not all(math.isfinite(v) for v in (x, y, yaw_deg)):
-                raise ValueError("not finite")
-            stops.append(Stop(name, Spot.from_xy_yaw(x, y, math.radians(yaw_deg)), frame))
-        except KeyError as e:
-            stops.append(Stop(name, None, frame, f"bad pose {entry!r}: expected [x, y, yaw_deg] (no key {e})"))
-        except (TypeError, ValueError) as e:
-            stops.append(Stop(name, None, frame, f"bad pose {entry!r}: expected [x, y, yaw_deg] ({e})"))
+            stops.append(Stop(name, _spot(parse_pose(entry)), frame))
+        except ValueError as e:
+            stops.append(Stop(name, None, frame, f"bad pose: {e}"))
     return stops
+
+
+def _spot(pose):
+    """The Spot of a route pose (x [m], y [m], yaw_deg [deg])."""
+    x, y, yaw_deg = pose
+    return Spot.from_xy_yaw(x, y, math.radians(yaw_deg))
 
 
 class WaypointFileError(ValueError):
@@ -91,49 +88,45 @@ class WaypointFileError(ValueError):
 
 
 def load_waypoints(path, frame="map"):
-    """(stops, dock) from a waypoint file:
+    """(stops, dock) from a waypoint file (the route file of summit_nav_common.route):
 
         waypoints: [{name: s1, x: 1.0, y: 2.0, yaw_deg: 90}, ...]   # [m], [m], [deg]
         dock: {x: 0.0, y: 0.0, yaw_deg: 0}                          # optional
 
-    Other keys (such as ``start:``) are ignored. A bad waypoint entry becomes a Stop with
+    Other keys (such as ``start:``) are ignored; a waypoint without a name is called
+    ``waypoints[i]``. A bad waypoint entry becomes a Stop with
     its reason (reported and skipped every lap); a missing or unparsable file, no
     ``waypoints`` list, no usable waypoint at all or a bad ``dock`` raise
     WaypointFileError naming the file and the entry. dock is a Stop named "dock" or None.
     """
-    doc = load_yaml(path, WaypointFileError, "waypoint file")
-    found = doc.get("waypoints") if isinstance(doc, dict) else doc
-    if not isinstance(found, list) or not found or not isinstance(doc, dict):
-        raise WaypointFileError(f"waypoint file {path}: expected a non-empty list 'waypoints: "
-                                f"[{{name, x, y, yaw_deg}}, ...]', got {found!r}")
+    try:
+        route = read_route(path)
+        dock = route.dock.checked() if route.dock is not None else None
+    except RouteError as e:
+        raise WaypointFileError(f"waypoint file {e}") from None
     stops = []
-    for i, entry in enumerate(doc["waypoints"]):
-        if not isinstance(entry, dict):
-            stops.append(Stop(f"waypoints[{i}]", None, frame,
-                              f"{path}: waypoints[{i}] is {entry!r}, expected {{name, x, y, yaw_deg}}"))
-            continue
-        named = dict(entry, name=str(entry.get("name", f"waypoints[{i}]")))
-        stop = build_stops(poses=[named], frame=frame)[0]
-        if stop.error:
-            stop.error = f"{path}: waypoints[{i}] ('{stop.name}'): {stop.error}"
-        stops.append(stop)
+    for i, wp in enumerate(route.waypoints):
+        if wp.name is None:
+            name, label = f"waypoints[{i}]", wp.where
+        else:
+            name = str(wp.name)
+            label = f"{wp.where} ('{name}')"
+        if wp.error is None:
+            stops.append(Stop(name, _spot(wp.pose), frame))
+        else:
+            stops.append(Stop(name, None, frame, f"{label}: {wp.error}"))
     if all(s.error for s in stops):
         raise WaypointFileError(f"waypoint file {path}: no usable waypoint: " + "; ".join(s.error for s in stops))
-    dock = None
-    if doc.get("dock") is not None:
-        dock = parse_dock(doc["dock"], frame, f"waypoint file {path}: dock")
-    return stops, dock
+    return stops, (None if dock is None else Stop("dock", _spot(dock), frame))
 
 
 def parse_dock(entry, frame, where):
     """The dock Stop from {x, y, yaw_deg} or [x, y, yaw_deg]; WaypointFileError naming
     where when it cannot be a goal."""
-    if isinstance(entry, dict):
-        entry = dict(entry, name="dock")
-    stop = build_stops(poses=[entry], frame=frame)[0]
-    if stop.error:
-        raise WaypointFileError(f"{where}: {stop.error}")
-    return Stop("dock", stop.spot, frame)
+    try:
+        return Stop("dock", _spot(parse_pose(entry)), frame)
+    except ValueError as e:
+        raise WaypointFileError(f"{where}: {e}") from None
 
 
 def decide(state, text, attempt, max_retries, stuck=False):

@@ -29,8 +29,9 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from summit_nav_common.files import load_yaml
+
 from summit_nav_common.geometry import relative
+from summit_nav_common.route import RouteError, parse_pose, read_route
 
 # The tutorial's thresholds (section 7.1), and SPEC.md's memory bound for every node.
 LOCALIZATION_MEDIAN_MAX = 0.1   # [m] "localization error < 0.1 m"
@@ -247,12 +248,10 @@ def parse_pose_arg(text, flag):
     """(x [m], y [m], yaw [rad]) of a command-line pose "x,y,yaw_deg"; HealthError naming
     the flag otherwise."""
     try:
-        parts = [float(p) for p in str(text).split(",")]
+        x, y, yaw_deg = parse_pose(str(text).split(","))
     except ValueError:
-        parts = []
-    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
-        raise HealthError(f"{flag} {text!r}: expected x,y,yaw_deg (three numbers, e.g. 1.5,-2,90)")
-    return parts[0], parts[1], math.radians(parts[2])
+        raise HealthError(f"{flag} {text!r}: expected x,y,yaw_deg (three numbers, e.g. 1.5,-2,90)") from None
+    return x, y, math.radians(yaw_deg)
 
 
 def parse_dock(text):
@@ -260,36 +259,17 @@ def parse_dock(text):
     return parse_pose_arg(text, "--dock")
 
 
-def _pose_entry(entry, where):
-    """(x, y, yaw [rad]) of [x, y, yaw_deg] or {x, y, yaw_deg} (or yaw [rad])."""
-    try:
-        if isinstance(entry, dict):
-            yaw = math.radians(float(entry["yaw_deg"])) if "yaw_deg" in entry else float(entry.get("yaw", 0.0))
-            pose = (float(entry["x"]), float(entry["y"]), yaw)
-        else:
-            x, y, yaw_deg = (float(v) for v in entry)
-            pose = (x, y, math.radians(yaw_deg))
-    except (KeyError, TypeError, ValueError):
-        raise HealthError(f"{where}: expected [x, y, yaw_deg] or {{x, y, yaw_deg}}, got {entry!r}") from None
-    if not all(math.isfinite(v) for v in pose):
-        raise HealthError(f"{where}: not finite: {entry!r}")
-    return pose
-
-
 def read_waypoints(path):
-    """(dock, first waypoint, last waypoint), each a pose or None, of a waypoints YAML: a mapping with
-    ``dock:`` and ``waypoints:`` (each [x, y, yaw_deg] or {x, y, yaw_deg}); HealthError
-    naming the file when it is missing or malformed."""
-    doc = load_yaml(path, HealthError, "--waypoints")
-    if not isinstance(doc, dict):
-        raise HealthError(f"--waypoints {path}: expected a mapping with 'dock' and 'waypoints' keys")
-    dock = _pose_entry(doc["dock"], f"{path}: dock") if doc.get("dock") is not None else None
-    points = doc.get("waypoints") or []
-    if not isinstance(points, list):
-        raise HealthError(f"{path}: 'waypoints' is not a list")
-    first = _pose_entry(points[0], f"{path}: waypoints[0]") if points else None
-    last = _pose_entry(points[-1], f"{path}: waypoints[-1]") if points else None
-    return dock, first, last
+    """(dock, first waypoint, last waypoint), each (x [m], y [m], yaw [rad]) or None, of a
+    route file (summit_nav_common.route; its waypoints may be missing). HealthError naming
+    the file and the entry when the file cannot be read or one of the three is malformed."""
+    try:
+        route = read_route(path, need_waypoints=False)
+        ends = (route.waypoints[0], route.waypoints[-1]) if route.waypoints else (None, None)
+        poses = [None if e is None else e.checked() for e in (route.dock,) + ends]
+    except RouteError as e:
+        raise HealthError(f"--waypoints {e}") from None
+    return tuple(None if p is None else (p[0], p[1], math.radians(p[2])) for p in poses)
 
 
 # --- the report ------------------------------------------------------------------------

@@ -1,58 +1,35 @@
 """A lap route over a world: waypoints, the charging dock and the start pose.
 
-The route file is the YAML the cruise node reads (my_summit_navigation/config/
-race_track_waypoints.yaml) and the simulator reads its ``dock`` from::
-
-    waypoints: [{name: str, x: m, y: m, yaw_deg: deg}, ...]   # one lap, in driving order
-    dock: {x: m, y: m, yaw_deg: deg}    # base_footprint's pose when docked
-    start: {x: m, y: m, yaw_deg: deg}   # spawn pose
-
-This module reads and checks it (clearance of each pose in a World, lap length: the
-closed polyline through the waypoints) and draws it over the map for a picture. Pure:
-no rospy.
+The route file (summit_nav_common.route: ``waypoints``, ``dock``, ``start``) is the YAML
+the cruise node reads (my_summit_navigation/config/race_track_waypoints.yaml) and the
+simulator reads its ``dock`` from. This module reads it strictly (every entry usable,
+every waypoint named), measures the lap (the closed polyline through the waypoints) and
+draws it over the map for a picture. Pure: no rospy.
 """
 import math
 
 import cv2
 import numpy as np
-from summit_nav_common.files import load_yaml
+
 from summit_nav_common.map_io import FREE, OCCUPIED
-
-
-class RouteError(ValueError):
-    """A route file that cannot be used; the message names the file and the entry."""
-
-
-def _pose(entry, where, named=False):
-    if not isinstance(entry, dict):
-        raise RouteError(f"{where}: expected a mapping {{{'name, ' if named else ''}x, y, yaw_deg}}, got {entry!r}")
-    try:
-        pose = tuple(float(entry[k]) for k in ("x", "y", "yaw_deg"))
-    except KeyError as e:
-        raise RouteError(f"{where}: missing field {e}") from None
-    except (TypeError, ValueError):
-        raise RouteError(f"{where}: x, y, yaw_deg must be numbers, got {entry!r}") from None
-    if not all(math.isfinite(v) for v in pose):
-        raise RouteError(f"{where}: x, y, yaw_deg must be finite, got {entry!r}")
-    if named:
-        name = entry.get("name")
-        if not isinstance(name, str) or not name:
-            raise RouteError(f"{where}: needs a non-empty 'name'")
-        return (name,) + pose
-    return pose
+from summit_nav_common.route import RouteError, read_route
 
 
 def load_route(path):
-    """Read a route YAML; returns {'waypoints': [(name, x, y, yaw_deg)], 'dock': (x, y,
-    yaw_deg), 'start': (x, y, yaw_deg)} (dock and start None when absent)."""
-    doc = load_yaml(path, RouteError)
-    if not isinstance(doc, dict) or not isinstance(doc.get("waypoints"), list) or not doc["waypoints"]:
-        raise RouteError(f"{path}: expected a mapping with a non-empty list 'waypoints'")
-    route = {"waypoints": [_pose(w, f"{path}: waypoints[{i}]", named=True)
-                           for i, w in enumerate(doc["waypoints"])]}
-    for key in ("dock", "start"):
-        route[key] = _pose(doc[key], f"{path}: {key}") if doc.get(key) is not None else None
-    return route
+    """Read a route file (summit_nav_common.route) for drawing and checking: returns
+    {'waypoints': [(name, x, y, yaw_deg)], 'dock': (x, y, yaw_deg), 'start': (x, y,
+    yaw_deg)} (dock and start None when absent). Every entry must be usable and every
+    waypoint named: RouteError naming the file and the first bad entry otherwise."""
+    route = read_route(path)
+    waypoints = []
+    for wp in route.waypoints:
+        pose = wp.checked()
+        if not isinstance(wp.name, str) or not wp.name:
+            raise RouteError(f"{wp.where}: needs a non-empty 'name'")
+        waypoints.append((wp.name,) + pose)
+    return {"waypoints": waypoints,
+            "dock": route.dock.checked() if route.dock is not None else None,
+            "start": route.start.checked() if route.start is not None else None}
 
 
 def lap_length(waypoints):

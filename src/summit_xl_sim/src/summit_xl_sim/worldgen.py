@@ -17,6 +17,7 @@ import math
 
 import cv2
 import numpy as np
+
 from summit_nav_common.files import load_yaml
 from summit_nav_common.map_io import PGM_FREE, PGM_OCCUPIED, PGM_UNKNOWN, GridMap, MapError, save_map, image_to_grid
 
