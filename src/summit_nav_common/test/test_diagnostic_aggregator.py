@@ -235,3 +235,26 @@ def test_unknown_keys_are_warned():
     Aggregator({"analyzers": {"n": {"type": GENERIC, "path": "N", "startwith": "a", "contains": "a"}}}, 0.0,
                warn=said.append)
     assert said == ["~analyzers/n: GenericAnalyzer ignores startwith"]
+
+
+def test_the_shipped_analyzers_group_every_node_alone_or_in_a_robot_namespace():
+    """config/analyzers.yaml (what sim.launch starts) puts each node's statuses under its
+    part of the Navigation Stack, and so for a robot of several ("robot_1/amcl: ..."):
+    with startswith those went to Other (found in review, multi_robot launch files)."""
+    import os
+    import yaml
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config", "analyzers.yaml")
+    with open(path) as f:
+        params = yaml.safe_load(f)
+    parts = {"summit_xl_sim: Battery": "Simulator", "amcl: Standard deviation": "Localization",
+             "ekf_se: Filter": "Localization", "slam_gmapping: Map update": "Mapping",
+             "slam_karto: Scan rate": "Mapping", "move_base: Controller": "Planning",
+             "auto_navigator: Cruise": "Cruise", "patrol: Cruise": "Cruise"}
+    for prefix in ("", "robot_1/", "fleet/robot_2/"):
+        statuses = [Status(prefix + name, OK, "fine") for name in parts]
+        _, (out, _) = agg_with(params, statuses)
+        s = by_name(out)
+        assert not [n for n in s if n.startswith("/Other")], (prefix, sorted(s))
+        for name, part in parts.items():
+            matched = [n for n in s if n.startswith(f"/Navigation Stack/{part}/") and n.endswith(name)]
+            assert matched, (prefix + name, part, sorted(s))
