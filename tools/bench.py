@@ -426,13 +426,18 @@ def bench_race_track():
     """bench_race_track.py: the long cruise with charging stops and a box, then the adaptive
     parameters off and on."""
     script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_race_track.py")
-    runs = {"cruise": ["--laps", str(RACE_LAPS), "--speed", "1", "--box", "--capacity-wh", str(RACE_CAPACITY_WH)],
+    runs = {"cruise": ["--laps", str(RACE_LAPS), "--speed", "1", "--box", "--capacity-wh", str(RACE_CAPACITY_WH),
+                       "--min-charges", "2"],
             "adaptive_off": ["--laps", str(ADAPTIVE_LAPS), "--speed", str(ADAPTIVE_SPEED)],
             "adaptive_on": ["--laps", str(ADAPTIVE_LAPS), "--speed", str(ADAPTIVE_SPEED), "--adaptive"]}
     res = {"capacity_wh": RACE_CAPACITY_WH}
     for name, extra in runs.items():
         path = os.path.join(OUT, f"bench_race_track_{name}.json")
+        if os.path.exists(path):
+            os.remove(path)     # a run that dies before writing must not leave an old result standing
         subprocess.run([sys.executable, script, "--json", path] + extra)
+        if not os.path.exists(path):
+            raise RuntimeError(f"bench_race_track.py {' '.join(extra)} wrote no result")
         with open(path) as f:
             res[name] = json.load(f)
     return res

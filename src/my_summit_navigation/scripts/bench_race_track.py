@@ -44,6 +44,7 @@ WORLD = os.path.join(WS, "src", "summit_xl_sim", "worlds", "race_track.yaml")
 BATTERY = os.path.join(WS, "src", "summit_xl_sim", "config", "race_track_battery.yaml")
 LOW_BATTERY = 0.2       # auto_navigator's ~low_battery default
 CHARGING = 1            # sensor_msgs/BatteryState.POWER_SUPPLY_STATUS_CHARGING
+SUCCEEDED = 3           # actionlib_msgs/GoalStatus.SUCCEEDED
 GOAL_MATCH = 0.05       # [m] a move_base goal is a waypoint when this close to it
 BOX_SIZE = 0.25         # [m] a box against one wall of the narrow section
 # The narrow section is 1.35 m wide at y = 1.5, x -4..1 (race_track.world.yaml); the box
@@ -53,6 +54,7 @@ BOX_LAP = 2             # the lap the box is dropped on
 BOX_AHEAD = 2.0         # [m] drop it when the robot is this far from it (truth)
 BOX_FOR = 120.0         # [s] of simulated time at most, then it is taken away anyway
 HALF_WIDTH = 0.31       # [m] the Summit XL's half width
+CORNER_SLACK = 0.05     # [m] the centre distance judges two rectangles: what a corner may lean in
 WALL_LIMIT_PER_LAP = 600.0   # [s] of wall-clock time per lap at 1x, at most
 TRUTH_PERIOD = 0.1      # [s] of simulated time between clearance samples
 
@@ -76,25 +78,31 @@ def match_goal(xy, waypoints, dock):
     return None
 
 
-def judge_battery(events, goals):
+def judge_battery(events, goals, n_waypoints):
     """Each low-battery event followed by a charge and a resume at the interrupted waypoint.
 
     events: [(t, kind)] with kind 'low' (percentage fell under LOW_BATTERY) or 'charging'
-    (status turned CHARGING); goals: [(t, target)] of move_base goals in order, target a
-    waypoint index or 'dock'. Returns a list of dicts, one per low event."""
+    (status turned CHARGING); goals: [(t, target, status)] of move_base goals in the order
+    sent, target a waypoint index or 'dock', status the goal's final actionlib status
+    (None while it runs). The interrupted waypoint is the last waypoint goal sent before
+    the low event; if move_base reported it SUCCEEDED (reached while the cancel was on its
+    way) the cruise rightly resumes at the next one. Returns a dict per low event."""
     out = []
     for t_low, kind in events:
         if kind != "low":
             continue
-        before = [g for t, g in goals if t <= t_low and g != "dock"]
-        interrupted = before[-1] if before else None
+        before = [(g, st) for t, g, st in goals if t <= t_low and g != "dock"]
+        interrupted, status = before[-1] if before else (None, None)
+        expected = interrupted
+        if interrupted is not None and status == SUCCEEDED:
+            expected = (interrupted + 1) % n_waypoints
         charged = [t for t, k in events if k == "charging" and t > t_low]
         t_charge = charged[0] if charged else None
-        after = [g for t, g in goals if t_charge is not None and t > t_charge and g != "dock"]
+        after = [g for t, g, _ in goals if t_charge is not None and t > t_charge and g != "dock"]
         resumed = after[0] if after else None
-        out.append({"t_low": round(t_low, 1), "interrupted": interrupted,
+        out.append({"t_low": round(t_low, 1), "interrupted": interrupted, "expected": expected,
                     "charged_at": None if t_charge is None else round(t_charge, 1),
-                    "resumed": resumed, "ok": t_charge is not None and resumed == interrupted})
+                    "resumed": resumed, "ok": t_charge is not None and resumed == expected})
     return out
 
 
@@ -107,7 +115,7 @@ def footprint_edge(length=0.72, width=0.62, spacing=0.05):
                       np.column_stack([np.full_like(ys, hl), ys]), np.column_stack([np.full_like(ys, -hl), ys])])
 
 
-def run(laps, speed, seed, box, adaptive, capacity_wh, log, health_dir):
+def run(laps, speed, seed, box, adaptive, capacity_wh, min_charges, log, health_dir):
     from roslaunch_session import RoslaunchSession, wait_for_sim_time_param
     waypoints, dock = load_route()
     battery_file = BATTERY
@@ -126,13 +134,13 @@ def run(laps, speed, seed, box, adaptive, capacity_wh, log, health_dir):
     try:
         with RoslaunchSession(args, log=log) as session:
             wait_for_sim_time_param(session)
-            return watch(session, laps, speed, box, waypoints, dock, health_dir)
+            return watch(session, laps, speed, box, min_charges, waypoints, dock, health_dir)
     finally:
         if tmp is not None:
             os.unlink(tmp.name)
 
 
-def watch(session, laps, speed, box, waypoints, dock, health_dir):
+def watch(session, laps, speed, box, min_charges, waypoints, dock, health_dir):
     import rospy
     from geometry_msgs.msg import Pose2D
     from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
@@ -149,7 +157,7 @@ def watch(session, laps, speed, box, waypoints, dock, health_dir):
     edge = footprint_edge()
     lock = threading.Lock()
     st = {"pose": None, "t_sample": -math.inf, "least_clearance": math.inf, "where": None, "collisions": 0,
-          "goals": [], "results": [], "events": [], "pct": None, "status": None, "summary": None,
+          "goals": [], "goal_ids": [], "final": {}, "results": [], "events": [], "pct": None, "status": None, "summary": None,
           "max_speed": 0.0}
 
     def on_truth(msg):
@@ -173,10 +181,12 @@ def watch(session, laps, speed, box, waypoints, dock, health_dir):
         target = match_goal((p.x, p.y), waypoints, dock)
         with lock:
             st["goals"].append((rospy.Time.now().to_sec(), target))
+            st["goal_ids"].append(msg.goal_id.id)
 
     def on_result(msg):
         with lock:
             st["results"].append((rospy.Time.now().to_sec(), msg.status.status))
+            st["final"][msg.status.goal_id.id] = msg.status.status
 
     def on_battery(msg):
         t = msg.header.stamp.to_sec() or rospy.Time.now().to_sec()
@@ -248,20 +258,23 @@ def watch(session, laps, speed, box, waypoints, dock, health_dir):
     if os.path.exists(health_path):
         with open(health_path) as f:
             health = json.load(f)
-    battery = judge_battery(res["events"], res["goals"])
+    goals = [(t, g, res["final"].get(gid)) for (t, g), gid in zip(res["goals"], res["goal_ids"])]
+    battery = judge_battery(res["events"], goals, len(waypoints))
     n_wp = len(waypoints)
     skipped = summary.get("skipped", []) if summary else []
     reached = summary.get("reached") if summary else None
     accounted = (reached or 0) + len(skipped)
     dock_goals = sum(1 for _, g in res["goals"] if g == "dock")
-    box_clear = BOX_SIZE / 2 + HALF_WIDTH - 0.05    # [m] robot centre to box centre, at least
+    box_clear = BOX_SIZE / 2 + HALF_WIDTH - CORNER_SLACK    # [m] robot centre to box centre, at least
     box_ok = box_xy is None or (box_state["dropped"] is not None and box_state["min_dist"] > box_clear)
+    charges = sum(1 for _, k in res["events"] if k == "charging")
     ok = (summary is not None and accounted == laps * n_wp and res["collisions"] == 0
-          and all(b["ok"] for b in battery) and all(s.get("reason") for s in skipped) and box_ok)
+          and all(b["ok"] for b in battery) and all(s.get("reason") for s in skipped) and box_ok
+          and charges >= min_charges)
     return {"ok": bool(ok), "laps": laps, "speed": speed, "waypoints_per_lap": n_wp,
             "summary": summary, "reached": reached, "skipped": skipped, "accounted": accounted,
             "collisions": int(res["collisions"]), "low_battery_events": battery,
-            "charges": sum(1 for _, k in res["events"] if k == "charging"), "dock_goals": dock_goals,
+            "charges": charges, "min_charges": min_charges, "dock_goals": dock_goals,
             "least_clearance_m": round(res["least_clearance"], 3), "least_clearance_at": res["where"],
             "max_speed_mps": round(res["max_speed"], 2),
             "box": None if box_xy is None else {"xy": box_xy, "dropped_s": box_state["dropped"],
@@ -279,6 +292,7 @@ def main(argv=None):
     ap.add_argument("--box", action="store_true", help="drop a box on the narrow section on lap 2")
     ap.add_argument("--adaptive", action="store_true", help="run the adaptive parameters node")
     ap.add_argument("--capacity-wh", type=float, help="the battery's capacity [Wh] (race track default otherwise)")
+    ap.add_argument("--min-charges", type=int, default=0, help="charging stops the run must have, at least")
     ap.add_argument("--json", help="write the result here")
     args = ap.parse_args(argv)
     out_dir = os.path.join(WS, "output", "race_track")
@@ -286,7 +300,7 @@ def main(argv=None):
     tag = f"laps{args.laps}{'_adaptive' if args.adaptive else ''}{'_box' if args.box else ''}"
     health_dir = os.path.join(out_dir, tag)
     os.makedirs(health_dir, exist_ok=True)
-    res = run(args.laps, args.speed, args.seed, args.box, args.adaptive, args.capacity_wh,
+    res = run(args.laps, args.speed, args.seed, args.box, args.adaptive, args.capacity_wh, args.min_charges,
               os.path.join(out_dir, tag + ".log"), health_dir)
     res["adaptive"] = bool(args.adaptive)
     print(json.dumps(res), flush=True)
