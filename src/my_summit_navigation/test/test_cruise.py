@@ -144,6 +144,20 @@ def test_a_stall_cancels_recovers_and_retries():
     assert r.cruise.log.retried == 1 and r.cruise.log.reached == 1
 
 
+def test_a_goal_that_succeeds_while_the_stall_cancel_travels_is_reached_not_retried():
+    """move_base reached the goal before the stall's cancel got there: SUCCEEDED counts,
+    as it does when the cancel was the battery's."""
+    assert cr.decide(cr.SUCCEEDED, "", 1, 2, stuck=True) == (cr.NEXT, "reached")
+    r = Run(laps=1, movement_timeout=30.0)
+    r.start()
+    r.feedback(0.0, dt=1.0)
+    assert isinstance(r.feedback(0.01, dt=31.0)[-1], cr.Cancel)    # stuck: cancel
+    out = r.finish(cr.SUCCEEDED, "", dt=0.2)                        # but it got there
+    assert not any(isinstance(c, cr.ClearCostmaps) for c in out)
+    assert r.sends() == ["a", "b"] and r.cruise.activity == cr.CRUISING
+    assert r.cruise.log.reached == 1 and r.cruise.log.retried == 0
+
+
 def test_a_goal_without_any_feedback_stalls_too_and_an_unanswered_cancel_is_not_waited_for_ever():
     r = Run(laps=1, movement_timeout=30.0)
     r.start()

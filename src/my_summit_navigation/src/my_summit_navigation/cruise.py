@@ -133,8 +133,9 @@ def decide(state, text, attempt, max_retries, stuck=False):
     """(action, reason) after a goal ended: NEXT, RETRY (clear costmaps first) or SKIP.
 
     attempt: 1 for the first try of this spot; max_retries: how many more tries an
-    aborted or stuck goal gets."""
-    if state == SUCCEEDED and not stuck:
+    aborted or stuck goal gets; stuck: the cruise canceled the goal for lack of progress.
+    SUCCEEDED is reached whatever a cancel on its way was for."""
+    if state == SUCCEEDED:
         return NEXT, "reached"
     why = "stuck: no progress" if stuck else \
         f"move_base {'aborted' if state == ABORTED else 'ended the goal (state %d)' % state}: " \
