@@ -215,6 +215,18 @@ def test_low_battery_at_the_start_goes_to_the_dock_first():
     assert r.sends() == ["dock"]
 
 
+def test_battery_levels_are_logged_with_one_decimal():
+    """19.6 % was logged as "battery low (20 % < 20 %)": a level under the threshold
+    printed as equal to it."""
+    r = Run(laps=1, dock=DOCK)
+    r.start()
+    r.battery(0.196)
+    assert "battery low (19.6 % < 20.0 %)" in r.logs(cr.WARN)[0]
+    r.finish(cr.PREEMPTED)
+    assert "charging to 90.0 %" in r.finish()[0].text
+    assert "charged (90.4 %)" in r.battery(0.904)[0].text
+
+
 def test_critical_battery_away_from_the_dock_stops_with_an_error():
     r = Run(laps=2, dock=DOCK)
     r.start()

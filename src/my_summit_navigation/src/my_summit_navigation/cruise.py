@@ -77,6 +77,12 @@ def build_stops(labels=None, book=None, poses=None, frame="map"):
     return stops
 
 
+def _pct(fraction):
+    """A battery fraction (0..1) as a percentage with one decimal, e.g. "19.6 %": whole
+    percents would print a level just under a threshold as equal to it."""
+    return f"{100.0 * fraction:.1f} %"
+
+
 def _spot(pose):
     """The Spot of a route pose (x [m], y [m], yaw_deg [deg])."""
     x, y, yaw_deg = pose
@@ -435,13 +441,13 @@ class Cruise:
         """A BatteryState's percentage (0..1) at time now."""
         out = []
         if self.battery_missing and self.percentage is None:
-            out.append(Log(OK, f"battery data arrived ({100 * percentage:.0f} %): battery handling on"))
+            out.append(Log(OK, f"battery data arrived ({_pct(percentage)}): battery handling on"))
         self.percentage = float(percentage)
         if self.done or self.activity is None:
             return out
         lim = self.battery_limits
         if self.percentage < lim.critical and not self.at_dock():
-            text = (f"battery critical: {100 * self.percentage:.1f} % < {100 * lim.critical:.0f} % away from "
+            text = (f"battery critical: {_pct(self.percentage)} < {_pct(lim.critical)} away from "
                     f"the dock; stopping here")
             out.append(Log(ERROR, text))
             if self._goal is not None:
@@ -456,12 +462,12 @@ class Cruise:
             if self.dock is None:
                 if not self.no_dock_warned:
                     self.no_dock_warned = True
-                    out.append(Log(WARN, f"battery low ({100 * self.percentage:.0f} % < {100 * lim.low:.0f} %) "
+                    out.append(Log(WARN, f"battery low ({_pct(self.percentage)} < {_pct(lim.low)}) "
                                          f"but no dock is set: cruising on"))
                 return out
             self.low_battery_events += 1
             stop = self.current_stop()
-            out.append(Log(WARN, f"battery low ({100 * self.percentage:.0f} % < {100 * lim.low:.0f} %): going to "
+            out.append(Log(WARN, f"battery low ({_pct(self.percentage)} < {_pct(lim.low)}): going to "
                                  f"the dock; will resume at {self.log.prefix} {self.lap}, "
                                  f"'{stop.name if stop else '?'}'"))
             self.activity = TO_DOCK
@@ -560,7 +566,7 @@ class Cruise:
         if self.dock is not None and self.percentage is not None and self.percentage < lim.low:
             self.low_battery_events += 1
             self.activity = TO_DOCK
-            out.append(Log(WARN, f"battery low ({100 * self.percentage:.0f} %): to the dock before "
+            out.append(Log(WARN, f"battery low ({_pct(self.percentage)} < {_pct(lim.low)}): to the dock before "
                                  f"'{stop.name}'"))
             return out + self._go_dock(now)
         self.activity = CRUISING
@@ -578,7 +584,7 @@ class Cruise:
             self.activity = CHARGING
             self.attempt = 0
             out = [Log(OK, f"at the dock after {took:.1f} s (visit {self.dock_visits}); charging to "
-                           f"{100 * self.battery_limits.resume:.0f} %")]
+                           f"{_pct(self.battery_limits.resume)}")]
             if self.percentage is None or self.percentage >= self.battery_limits.resume:
                 out += self._resume(now)
             return out
@@ -590,7 +596,7 @@ class Cruise:
 
     def _resume(self, now):
         stop = self.current_stop()
-        out = [Log(OK, f"charged ({'?' if self.percentage is None else '%.0f' % (100 * self.percentage)} %): "
+        out = [Log(OK, f"charged ({'? %' if self.percentage is None else _pct(self.percentage)}): "
                        f"resuming at {self.log.prefix} {self.lap}, '{stop.name if stop else '(lap end)'}'")]
         self.activity = CRUISING
         self.attempt = 0
