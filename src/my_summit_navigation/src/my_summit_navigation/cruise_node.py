@@ -72,7 +72,7 @@ class CruiseNode:
         self.client = SimpleActionClient(params["action"], MoveBaseAction)
         self.summary_pub = rospy.Publisher("~summary", String, queue_size=1, latch=True)
         self.battery_sub = rospy.Subscriber(params["battery_topic"], BatteryState, self._on_battery, queue_size=10)
-        self.diagnostics = NodeDiagnostics(hardware_id=rospy.get_name().lstrip("/"))
+        self.diagnostics = NodeDiagnostics(hardware_id="none")   # software, no device: as move_base's
         self.diagnostics.add("Cruise", self._diagnose)
         self._last_activity = None
 
