@@ -1,6 +1,7 @@
 """Unit tests of the cruise's ROS adapter (my_summit_navigation.cruise_node.CruiseNode)
 without a ROS master: rospy's publishers, subscribers and clock, the move_base action
 client and the diagnostics are replaced by fakes that record what the node does."""
+import threading
 from types import SimpleNamespace
 
 import pytest
@@ -74,3 +75,22 @@ def test_the_diagnostics_hardware_id_is_none_as_for_the_other_software_nodes(ros
     """The cruise is software, no device: hardware_id "none" as move_base's and
     slam_gmapping's (it was the node's name)."""
     assert node().diagnostics.hardware_id == "none"
+
+
+def test_the_diagnostic_task_reads_a_copy_never_the_cruise(ros):
+    """NodeDiagnostics' timer thread called Cruise.status() while the loop changed the
+    Cruise (current_stop() read index twice: an IndexError at a lap's end). The loop now
+    stores the status after each step; the diagnostic task only reads that copy."""
+    n = node()
+    assert n._diagnose(0.0).message.startswith("waiting for the move_base action server")
+    n.run()                                   # start: goal a sent (the loop then ends: is_shutdown)
+    expected = n.cruise.status()
+
+    def touched(*_a):
+        raise AssertionError("the diagnostic task read the Cruise")
+    n.cruise.status = n.cruise.current_stop = touched
+    seen = []
+    worker = threading.Thread(target=lambda: seen.append(n._diagnose(0.0)))
+    worker.start()
+    worker.join(5.0)
+    assert seen == [expected] and dict(seen[0].values)["waypoint"] == "a"

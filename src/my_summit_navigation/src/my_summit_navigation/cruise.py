@@ -325,7 +325,9 @@ class Cruise:
         return self.end_state is not None
 
     def current_stop(self):
-        return self.stops[self.index] if 0 <= self.index < len(self.stops) else None
+        """The waypoint being (or next to be) driven to; None past the lap's end."""
+        i = self.index
+        return self.stops[i] if 0 <= i < len(self.stops) else None
 
     def battery_action(self):
         """What the battery makes the cruise do, for the diagnostics."""

@@ -4,9 +4,11 @@ scripts/patrol.py, around the pure state machine my_summit_navigation.cruise.Cru
 It owns the move_base action client (summit_nav_common's SimpleActionClient, goals sent
 with done / active / feedback callbacks as in the tutorial), the battery subscriber, the
 costmap clearing, the latched ~summary and the "<node>: Cruise" diagnostic status
-(summit_nav_common's NodeDiagnostics, the check being Cruise.status). The
-callbacks only queue events; one loop feeds them and the clock to Cruise and carries out
-its commands, so Cruise itself is single-threaded.
+(summit_nav_common's NodeDiagnostics, the check being Cruise.status). Only the loop's
+thread touches the Cruise: it feeds the Cruise the events that rospy's callback threads
+queue and the clock, carries out its commands, and after each step stores a copy of
+Cruise.status() under a lock; the diagnostic task (NodeDiagnostics' timer thread)
+publishes that copy and never reads the Cruise.
 
 Parameters both nodes read (read_common_params):
   ~move_base_action (str, move_base); ~frame_id (str, map)
@@ -21,6 +23,7 @@ Parameters both nodes read (read_common_params):
 import json
 import math
 import queue
+import threading
 
 import rospy
 from move_base_msgs.msg import MoveBaseAction
@@ -73,6 +76,8 @@ class CruiseNode:
         self.summary_pub = rospy.Publisher("~summary", String, queue_size=1, latch=True)
         self.battery_sub = rospy.Subscriber(params["battery_topic"], BatteryState, self._on_battery, queue_size=10)
         self.diagnostics = NodeDiagnostics(hardware_id="none")   # software, no device: as move_base's
+        self._status_lock = threading.Lock()
+        self._status = Check(cr.WARN, f"waiting for the move_base action server '{params['action']}'")
         self.diagnostics.add("Cruise", self._diagnose)
         self._last_activity = None
 
@@ -103,9 +108,9 @@ class CruiseNode:
         return True, "interrupting the round; going home"
 
     def _diagnose(self, _now):
-        if self.cruise is None:
-            return Check(cr.WARN, f"waiting for the move_base action server '{self.params['action']}'")
-        return self.cruise.status()
+        """The diagnostic task (the timer's thread): the loop's last copy of the status."""
+        with self._status_lock:
+            return self._status
 
     # -- the loop ----------------------------------------------------------------------------
     def run(self, home=None):
@@ -122,6 +127,7 @@ class CruiseNode:
         self.cruise = cr.Cruise(self.stops, self.laps, p["max_retries"], p["movement_timeout"], dock=self.dock,
                                 home=home, battery=p["battery"], prefix=self.prefix)
         self._execute(self.cruise.start(self._now()))
+        self._update_diagnostics()
         while not rospy.is_shutdown() and not self.cruise.done:
             try:
                 event = self.events.get(timeout=LOOP_PERIOD)
@@ -184,8 +190,12 @@ class CruiseNode:
             rospy.logwarn(f"could not clear the costmaps ({name}): {e}")
 
     def _update_diagnostics(self):
-        """Publish at once when the activity changes (NodeDiagnostics' timer publishes
-        at ~diagnostic_period otherwise)."""
+        """In the loop, after each step: hand the diagnostic task a copy of the status
+        (a Check, immutable), and publish at once when the activity changes
+        (NodeDiagnostics' timer publishes at ~diagnostic_period otherwise)."""
+        status = self.cruise.status()
+        with self._status_lock:
+            self._status = status
         activity = (self.cruise.activity, self.cruise.end_state)
         if activity != self._last_activity:
             self._last_activity = activity
