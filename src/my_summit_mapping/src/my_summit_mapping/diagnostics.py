@@ -1,13 +1,17 @@
-"""slam_gmapping's diagnostic checks (pure): how long the particle filter takes a scan.
+"""slam_gmapping's diagnostic checks (pure): whether the particle filter keeps up.
 
 gmapping itself publishes no diagnostics; an operator of a mapping run wants to know that
-the filter keeps up. The filter takes a scan in its own thread, from a queue (see the
-node): an update that takes longer than map_update_interval [s] means the map lags the
-robot by more than the interval it was asked for, and scans dropped from the filter's
-full queue are scans the map never sees. The scan-rate check is
-summit_nav_common.diagnostic_checks.scan_rate_check.
+the filter keeps up. The filter takes the scans in its own thread, from a queue (see the
+node), so falling behind shows in ROS time, the clock of the scans' stamps (simulated
+under a simulator at any ~speed): the lag is now minus the stamp of the scan the filter
+took last, while scans wait for it (none waiting: it has caught up). A lag beyond
+map_update_interval [s of ROS time] means the map it serves is older than the period it
+was asked to be regenerated at; scans dropped from its full queue are scans the map never
+sees. The wall time an update takes depends on the machine and is reported as a value
+only. The scan-rate check is summit_nav_common.diagnostic_checks.scan_rate_check.
 """
 import threading
+from typing import Optional
 
 from summit_nav_common.diagnostic_checks import OK, WARN, Check, fmt
 
@@ -36,24 +40,39 @@ class UpdateTimes:
             return self.last, self.max, self.count
 
 
-def map_update_check(last: float, longest: float, count: int, map_update_interval: float,
-                     pending: int, dropped_new: int) -> Check:
-    """The filter's update time. last / longest [s]: wall time of the latest and the
-    longest update (last None before the first); count: updates so far;
-    map_update_interval [s]; pending: scans waiting for the filter; dropped_new: scans
-    dropped from its full queue since the previous report.
-    WARN when the latest update took longer than map_update_interval or scans were dropped."""
-    values = (("last update time [s]", fmt(float(last or 0.0))),
-              ("max update time [s]", fmt(float(longest))),
+def filter_lag(now: float, last_taken: Optional[float], oldest_waiting: Optional[float]) -> float:
+    """How far the filter is behind [s of ROS time]: now minus the stamp of the scan it
+    took last (before the first: of the oldest scan waiting), 0 when no scan waits for it
+    (queued or being taken). now, last_taken, oldest_waiting: ROS time [s]."""
+    if oldest_waiting is None:
+        return 0.0
+    since = last_taken if last_taken is not None else oldest_waiting
+    return max(0.0, now - since)
+
+
+def map_update_check(lag: float, max_lag: float, pending: int, dropped_new: int,
+                     last_wall: Optional[float], longest_wall: float, count: int) -> Check:
+    """Whether the filter keeps up with the scans.
+
+    lag [s of ROS time]: filter_lag; max_lag [s of ROS time]: the lag allowed (the node's
+    map_update_interval); pending: scans waiting for the filter; dropped_new: scans
+    dropped from its full queue since the previous report; last_wall / longest_wall
+    [s of wall time]: the latest and the longest filter update (last None before the
+    first), reported only; count: updates so far.
+    WARN when scans were dropped or the lag exceeds max_lag.
+    """
+    values = (("lag [s]", fmt(float(lag))),
+              ("max lag [s] (map_update_interval)", fmt(float(max_lag))),
+              ("scans waiting", fmt(int(pending))),
               ("updates", fmt(int(count))),
-              ("map_update_interval [s]", fmt(float(map_update_interval))),
-              ("scans waiting", fmt(int(pending))))
+              ("last update wall time [s]", fmt(float(last_wall)) if last_wall is not None else "n/a"),
+              ("max update wall time [s]", fmt(float(longest_wall)) if count else "n/a"))
     if dropped_new > 0:
         return Check(WARN, f"{dropped_new} scan(s) dropped from the filter's full queue since the last "
                            "report: the filter falls behind", values)
-    if last is None:
+    if lag > max_lag:
+        return Check(WARN, f"the filter is {lag:.1f} s behind the scans, more than map_update_interval "
+                           f"{max_lag:g} s ({pending} waiting)", values)
+    if count == 0:
         return Check(OK, "no filter update yet", values)
-    if last > map_update_interval:
-        return Check(WARN, f"the last update took {last:.2f} s, longer than map_update_interval "
-                           f"{map_update_interval:g} s", values)
-    return Check(OK, f"last update {last:.3f} s", values)
+    return Check(OK, f"{lag:.2f} s behind the scans", values)
