@@ -1,11 +1,13 @@
 """Unit tests of the cruise's ROS adapter (my_summit_navigation.cruise_node.CruiseNode)
 without a ROS master: rospy's publishers, subscribers and clock, the move_base action
 client and the diagnostics are replaced by fakes that record what the node does."""
+import math
 import threading
 from types import SimpleNamespace
 
 import pytest
 import rospy
+from sensor_msgs.msg import BatteryState
 
 from my_summit_navigation import cruise as cr
 from my_summit_navigation import cruise_node as cn
@@ -94,3 +96,44 @@ def test_the_diagnostic_task_reads_a_copy_never_the_cruise(ros):
     worker.start()
     worker.join(5.0)
     assert seen == [expected] and dict(seen[0].values)["waypoint"] == "a"
+
+
+def battery_msg(percentage, present=True):
+    return BatteryState(percentage=percentage, present=present)
+
+
+@pytest.mark.parametrize("msg, problem", [
+    (battery_msg(55.0), "outside 0..1"),
+    (battery_msg(-0.1), "outside 0..1"),
+    (battery_msg(math.nan), "NaN"),
+    (battery_msg(0.5, present=False), "present is false"),
+])
+def test_an_unusable_battery_message_is_ignored_with_one_warning_naming_the_topic(ros, msg, problem):
+    """A driver publishing 0-100 made 55 % read as 5500 % (never low); present false or a
+    NaN level carry no level either."""
+    n = node()
+    n._on_battery(msg)
+    n._on_battery(msg)
+    assert n.events.empty()
+    assert len(ros.warnings) == 1 and "/battery_state" in ros.warnings[0] and problem in ros.warnings[0]
+    n._on_battery(battery_msg(0.5))
+    assert n.events.get_nowait() == ("battery", 0.5) and len(ros.warnings) == 1
+
+
+def test_battery_messages_from_the_wait_for_move_base_are_handled_before_the_first_goal(ros):
+    """A robot started with a low battery sent its first goal to waypoint 1, then
+    canceled it for the dock: the battery messages queued while the node waited for
+    move_base were handled only after start. It now drives to the dock first."""
+    n = node()
+    n.client.on_wait = lambda: n._on_battery(battery_msg(0.1))
+    n.run()
+    assert n.client.goals == [DOCK.spot] and n.client.canceled <= 1   # (the loop's end cancels)
+    assert n.cruise.activity == cr.TO_DOCK and n.cruise.low_battery_events == 1
+
+
+def test_other_events_queued_at_the_start_wait_for_the_loop(ros):
+    n = node()
+    n.client.on_wait = lambda: (n.events.put(("home",)), n._on_battery(battery_msg(0.8)))
+    n.run()                                   # the loop does not run (is_shutdown)
+    assert n.client.goals == [A.spot] and n.cruise.percentage == pytest.approx(0.8)
+    assert list(n.events.queue) == [("home",)]

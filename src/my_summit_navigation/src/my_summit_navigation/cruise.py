@@ -9,7 +9,8 @@ with their time stamps and answering with commands:
 
 - events: ``start``, ``goal_done`` (move_base's terminal state and text), ``feedback``
   (the robot's position from move_base's feedback), ``battery`` (BatteryState's
-  percentage, 0..1), ``tick`` (time passing), ``return_home``;
+  percentage, 0..1; ``battery_problem`` tells which messages to drop), ``tick`` (time
+  passing), ``return_home``;
 - commands: ``Send`` a goal, ``Cancel`` it, ``ClearCostmaps``, ``Log`` a line,
   ``Finish`` with the summary (a dict; JSON for auto_navigator's ~summary).
 
@@ -28,7 +29,8 @@ and recover after 30 s without movement; to the charging station below 20 % batt
 and the waypoint patrol of the ROS navigation tutorials.
 
 Also here: ``build_stops`` (the patrol list from spot labels or poses),
-``load_waypoints`` (auto_navigator's YAML), ``decide``, ``ProgressWatch``, ``PatrolLog``.
+``load_waypoints`` (auto_navigator's YAML), ``decide``, ``battery_problem``,
+``ProgressWatch``, ``PatrolLog``.
 """
 import math
 from dataclasses import dataclass, field
@@ -272,6 +274,19 @@ class _Goal:
 # Activities (the diagnostics' "state" while running)
 CRUISING, RETRYING, RECOVERING, TO_DOCK, CHARGING, HOMING, DONE = (
     "cruising", "retrying", "recovering", "going to charge", "charging", "returning home", "done")
+
+
+def battery_problem(percentage, present=True):
+    """Why a BatteryState cannot be used (one text per kind of problem), or None: the
+    battery absent (present False), the level unknown (NaN, as BatteryState allows) or
+    outside 0..1 (e.g. a driver that publishes 0-100)."""
+    if not present:
+        return "present is false (no battery)"
+    if not math.isfinite(percentage):
+        return "percentage NaN (level unknown)"
+    if not 0.0 <= percentage <= 1.0:
+        return "percentage outside 0..1 (a 0-100 scale?)"
+    return None
 
 
 class Cruise:

@@ -16,12 +16,14 @@ Parameters both nodes read (read_common_params):
         the costmaps (move_base's ~clear_costmaps)
   ~movement_timeout (float [s], 30; patrol also reads ~stuck_timeout): no 0.1 m of progress
         toward the goal for this long -> cancel, clear the costmaps, retry
-  ~battery_topic (str, /battery_state): sensor_msgs/BatteryState, percentage 0..1
+  ~battery_topic (str, /battery_state): sensor_msgs/BatteryState, percentage 0..1; a
+        message with present false, a NaN percentage or one outside 0..1 is ignored (one
+        warning naming the topic per kind); messages that come while the node waits for
+        move_base are handled before the first goal (a low battery: the dock first)
   ~low_battery (0.2), ~resume_battery (0.9), ~critical_battery (0.05): fractions of a charge
   ~battery_timeout (float [s], 5): no battery message by then -> one warning, cruise on
 """
 import json
-import math
 import queue
 import threading
 
@@ -80,11 +82,18 @@ class CruiseNode:
         self._status = Check(cr.WARN, f"waiting for the move_base action server '{params['action']}'")
         self.diagnostics.add("Cruise", self._diagnose)
         self._last_activity = None
+        self._battery_warned = set()    # battery_problem texts already warned about
 
     # -- callbacks: queue events only --------------------------------------------------------
     def _on_battery(self, msg):
-        if math.isfinite(msg.percentage):     # NaN: the driver does not know (BatteryState)
+        problem = cr.battery_problem(msg.percentage, msg.present)
+        if problem is None:
             self.events.put(("battery", msg.percentage))
+            return
+        if problem not in self._battery_warned:
+            self._battery_warned.add(problem)
+            rospy.logwarn(f"{self.params['battery_topic']}: ignoring BatteryState messages with {problem} "
+                          f"(this one: percentage {msg.percentage:g}, present {msg.present}); warned once")
 
     def _callbacks(self, goal_id):
         def done(state, _result):
@@ -126,6 +135,7 @@ class CruiseNode:
         p = self.params
         self.cruise = cr.Cruise(self.stops, self.laps, p["max_retries"], p["movement_timeout"], dock=self.dock,
                                 home=home, battery=p["battery"], prefix=self.prefix)
+        self._take_early_battery()
         self._execute(self.cruise.start(self._now()))
         self._update_diagnostics()
         while not rospy.is_shutdown() and not self.cruise.done:
@@ -141,6 +151,23 @@ class CruiseNode:
         if not self.cruise.done:      # shut down mid-run: cancel the goal, report what was done
             self.client.cancel_goal()
         return self.cruise.summary(self._now())
+
+    def _take_early_battery(self):
+        """Feed the battery messages that came while waiting for move_base to the Cruise
+        before it starts, so that a robot started with a low battery docks first; other
+        queued events (a return home asked meanwhile) stay queued for the loop."""
+        others = []
+        while True:
+            try:
+                event = self.events.get_nowait()
+            except queue.Empty:
+                break
+            if event[0] == "battery":
+                self._execute(self._handle(event))
+            else:
+                others.append(event)
+        for event in others:
+            self.events.put(event)
 
     def spin(self):
         """After the run: keep the diagnostics (and the latched summary) up until shutdown."""
