@@ -180,6 +180,45 @@ def test_each_threshold_fails_on_its_own():
     assert not r["passed"]
 
 
+def planner_status(last, longest, plans, failed=0):
+    """The values of move_base's "Global planner" status (planner_check's keys)."""
+    return {"last plan time [s]": last, "max plan time [s]": longest, "plans": str(plans),
+            "failed attempts": str(failed)}
+
+
+def test_plan_sampler_takes_one_sample_per_attempt_and_the_worst_from_the_max():
+    """The adapter used to take "last plan time [s]" once per status, de-duplicated by its
+    text: move_base's "0" before the first plan was a 0 s plan, two plans between two
+    statuses left one, and two plans of equal text counted once; a 1.3 s plan followed by
+    a 0.2 s one before the next status never reached the worst."""
+    s, name = h.PlanSampler(), "move_base: Global planner"
+    assert s.observe(name, planner_status("n/a", "n/a", 0)) == (None, None)   # before the first plan
+    assert s.observe(name, planner_status("n/a", "n/a", 0)) == (None, None)
+    assert s.observe(name, planner_status("0.2", "0.2", 1)) == (0.2, 0.2)
+    assert s.observe(name, planner_status("0.2", "0.2", 1)) == (None, None)  # the same plan repeated
+    assert s.observe(name, planner_status("0.2", "0.2", 2)) == (0.2, None)   # a new plan, same time
+    assert s.observe(name, planner_status("0.2", "1.3", 4)) == (0.2, 1.3)    # 1.3 s then 0.2 s between
+    assert s.observe(name, planner_status("0.9", "1.3", 4, failed=1)) == (0.9, None)   # a failed attempt
+
+
+def test_plan_sampler_baseline_restart_and_bad_values():
+    s = h.PlanSampler()
+    # joined mid-run: the attempts already made may predate the report
+    assert s.observe("a", planner_status("0.5", "2.0", 7)) == (None, None)
+    assert s.observe("a", planner_status("0.3", "2.0", 8)) == (0.3, None)
+    assert s.observe("a", planner_status("0.4", "2.0", 1)) == (0.4, 2.0)     # restarted: all new
+    assert s.observe("b", planner_status("0.1", "0.1", 1)) == (None, None)   # one baseline per status
+    assert s.observe("c", {"last plan time [s]": "0.1"}) == (None, None)     # no count: nothing
+
+
+def test_report_takes_the_worst_plan_from_the_max():
+    rec, dock = synthetic_recording(plan_time=0.2)
+    rec.plan_max = [(3.0, 0.2), (40.0, 1.3)]
+    r = h.build_report(rec, 0.0, 130.0, {}, dock)
+    assert r["planning"]["worst_s"] == 1.3 and r["planning"]["median_s"] == 0.2
+    assert {c["metric"] for c in r["checks"] if c["result"] == h.FAIL} == {"planning time worst [s]"}
+
+
 def test_missing_data_is_reported_as_such_not_as_a_pass():
     r = h.build_report(h.Recording(), 0.0, 10.0)
     rows = {m: res for m, _, _, res in h.check_rows(r)}

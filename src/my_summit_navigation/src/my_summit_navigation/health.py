@@ -11,6 +11,10 @@ topics into a Recording; everything here is arrays in, numbers and pictures out:
   no truth within ``max_gap`` on both sides has none (NaN), so a pause of the truth is
   never bridged;
 - ``stats``: median, 95th percentile and worst of a sample;
+- ``PlanSampler``: planning times from move_base's "Global planner" statuses: a sample
+  of "last plan time [s]" each time the count of attempts ("plans" + "failed attempts")
+  changes, and the worst from "max plan time [s]" when it rises during the report, so a
+  plan between two statuses still counts for the worst;
 - ``window_rates``: messages per second in consecutive 1 s windows of simulated time that
   lie wholly inside the intervals where a goal was active (``rostopic hz`` while driving);
 - ``cpu_percent``: CPU seconds over wall seconds of a process, as top shows it (% of one
@@ -62,13 +66,16 @@ class Recording:
 
     Each list holds tuples, appended by the subscribers:
     amcl: (stamp, x [m], y [m], yaw [rad]); truth: (stamp, x, y, yaw, speed [m/s]);
-    plan_times: (t, last plan time [s]); cmd_vel: receive times; goal_active: (t, active
-    bool) at each /move_base/status message; battery: (t, percentage 0-1, charging bool).
+    plan_times: (t, last plan time [s]) per new planning attempt; plan_max: (t, max plan
+    time [s]) each time move_base's longest rose during the report (PlanSampler); cmd_vel:
+    receive times; goal_active: (t, active bool) at each /move_base/status message;
+    battery: (t, percentage 0-1, charging bool).
     """
 
     amcl: list = field(default_factory=list)
     truth: list = field(default_factory=list)
     plan_times: list = field(default_factory=list)
+    plan_max: list = field(default_factory=list)
     cmd_vel: list = field(default_factory=list)
     goal_active: list = field(default_factory=list)
     battery: list = field(default_factory=list)
@@ -85,6 +92,49 @@ def stats(values):
         return {"samples": 0, "median": None, "p95": None, "worst": None}
     return {"samples": int(v.size), "median": float(np.median(v)),
             "p95": float(np.percentile(v, 95)), "worst": float(v.max())}
+
+
+def _number(text):
+    """A DiagnosticStatus value as a float, None for "n/a", a missing key or junk."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return None
+
+
+class PlanSampler:
+    """Planning times from move_base's "Global planner" statuses, which repeat the latest
+    attempt's time at each publication (once per diagnostic period).
+
+    observe(name, values) takes one status (its name, {key: value text}) and returns
+    (last, worst): last [s] the latest attempt's time when the count of attempts
+    ("plans" + "failed attempts") changed since the previous status of that name, else
+    None; worst [s] move_base's "max plan time [s]" when it rose, else None. The first
+    status of a name is the baseline (its attempts may predate the report), unless it
+    has made no attempt yet; a count that goes down is a restarted move_base, whose
+    attempts are all new. Attempts between two statuses leave one sample (the latest),
+    but the longest of them still reaches the worst through the max.
+    """
+
+    def __init__(self):
+        self._seen = {}   # status name -> (attempts, max plan time [s] or None)
+
+    def observe(self, name, values):
+        plans, failed = _number(values.get("plans")), _number(values.get("failed attempts"))
+        if plans is None or failed is None:
+            return None, None
+        count, longest = int(plans + failed), _number(values.get("max plan time [s]"))
+        prev = self._seen.get(name)
+        self._seen[name] = (count, longest)
+        if prev is None:
+            if count > 0:
+                return None, None   # the baseline: these attempts may predate the report
+            prev = (0, None)
+        if count < prev[0]:
+            prev = (0, None)        # move_base restarted
+        last = _number(values.get("last plan time [s]")) if count != prev[0] else None
+        rose = longest is not None and (prev[1] is None or longest > prev[1])
+        return last, longest if rose else None
 
 
 def interpolate_track(t_query, t, x, y, yaw, max_gap=TRUTH_MAX_GAP):
@@ -292,6 +342,9 @@ def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=
     loc = stats(pos_err)
     head = stats(np.degrees(head_err))
     plan = stats([p for _, p in rec.plan_times])
+    plan_max = [m for _, m in rec.plan_max if math.isfinite(m)]
+    if plan_max:   # a plan between two statuses: only move_base's max saw it
+        plan["worst"] = max(plan_max + ([plan["worst"]] if plan["worst"] is not None else []))
     intervals = active_intervals(rec.goal_active, t_end)
     rates = window_rates(rec.cmd_vel, intervals)
     battery = np.asarray(rec.battery, dtype=np.float64).reshape(-1, 3)

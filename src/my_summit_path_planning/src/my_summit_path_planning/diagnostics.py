@@ -3,8 +3,9 @@
 The real move_base publishes no diagnostics; these are the checks the tutorial's
 performance table asks an operator to watch (control rate >= 10 Hz, planning time
 < 1.0 s), each published as "move_base: <name>". Key names are a contract with the health
-report (nav_health reads "rate [Hz]" of "move_base: Controller" and "last plan time [s]"
-of "move_base: Global planner"): keep them.
+report (nav_health reads "rate [Hz]" of "move_base: Controller" and "last plan time [s]",
+"max plan time [s]", "plans" and "failed attempts" of "move_base: Global planner"): keep
+them.
 
 - controller_check: control cycles per second [Hz, ROS time] against controller_frequency
   while a goal is active; WARN below 90 %.
@@ -79,10 +80,12 @@ class PlanTimes:
 def planner_check(last, longest: float, plans: int, failures: int, last_failure: str,
                   warn_time: float = PLAN_TIME_WARN) -> Check:
     """The global planner. last / longest: wall time [s] of the latest and the longest
-    makePlan (last None before the first); plans: plans found; failures: attempts without
-    a plan; last_failure: why the latest attempt found none ('' when it found one)."""
-    values = (("last plan time [s]", fmt(float(last or 0.0))),
-              ("max plan time [s]", fmt(float(longest))),
+    makePlan (last None before the first: both published "n/a", not a 0 s plan); plans:
+    plans found; failures: attempts without a plan; last_failure: why the latest attempt
+    found none ('' when it found one). A reader counts attempts by "plans" + "failed
+    attempts" (nav_health samples "last plan time [s]" when that count changes)."""
+    values = (("last plan time [s]", fmt(float(last)) if last is not None else "n/a"),
+              ("max plan time [s]", fmt(float(longest)) if last is not None else "n/a"),
               ("plans", fmt(int(plans))),
               ("failed attempts", fmt(int(failures))))
     if last is None:
