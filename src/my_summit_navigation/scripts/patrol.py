@@ -17,7 +17,7 @@
   param ~home (label, or [x, y, yaw_deg]; default: where the robot stood at the start)
   param ~dock (label, or [x, y, yaw_deg]; default none): where to charge when the battery
         is low; the battery parameters are cruise_node's (~battery_topic, ~low_battery,
-        ~resume_battery, ~critical_battery, ~battery_timeout)
+        ~resume_battery, ~critical_battery, ~battery_timeout, ~charge_start_timeout)
   srv   ~return_home (std_srvs/Trigger): cancel the current goal, drive home, stop
   topic ~summary (std_msgs/String, latched): the summary line when the patrol ends
 

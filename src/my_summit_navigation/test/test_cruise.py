@@ -48,9 +48,9 @@ class Run:
         self.t += dt
         return self.do(self.cruise.tick(self.t))
 
-    def battery(self, pct, dt=0.0):
+    def battery(self, pct, dt=0.0, status=cr.POWER_UNKNOWN):
         self.t += dt
-        return self.do(self.cruise.battery(pct, self.t))
+        return self.do(self.cruise.battery(pct, self.t, status))
 
     def feedback(self, x, y=0.0, dt=1.0):
         self.t += dt
@@ -180,14 +180,16 @@ def test_low_battery_mid_goal_docks_charges_and_resumes_at_the_same_waypoint():
     r.finish(cr.PREEMPTED, dt=0.2)           # the cancel confirmed: to the dock
     assert r.sends() == ["a", "b", "dock"]
     assert r.cruise.status()[0] == cr.WARN and dict(r.cruise.status().values)["battery action"] == "going to the dock"
-    r.finish(dt=20.0)                        # docked
+    r.feedback(-0.9, dt=19.0)                # beside the dock
+    r.battery(0.04, dt=0.5)                  # below critical, but at the dock: no stop
+    r.finish(dt=0.5)                         # docked
     assert r.cruise.activity == cr.CHARGING and r.cruise.dock_visits == 1
     assert dict(r.cruise.status().values)["battery action"] == "charging"
-    r.battery(0.02, dt=10.0)                 # below critical, but at the dock: no stop
+    r.battery(0.041, dt=1.0, status=cr.POWER_CHARGING)   # charging below critical: no stop
     assert not r.cruise.done
     for pct in (0.3, 0.6, 0.89):
-        assert r.battery(pct, dt=10.0) == []
-    r.battery(0.9, dt=10.0)                  # charged: b again, same lap
+        assert r.battery(pct, dt=10.0, status=cr.POWER_CHARGING) == []
+    r.battery(0.9, dt=10.0, status=cr.POWER_CHARGING)    # charged: b again, same lap
     assert r.sends() == ["a", "b", "dock", "b"] and r.cruise.lap == 1
     r.finish()
     r.finish()
@@ -195,6 +197,81 @@ def test_low_battery_mid_goal_docks_charges_and_resumes_at_the_same_waypoint():
     assert s["state"] == cr.COMPLETED and s["laps"] == 1 and s["reached"] == 3 and s["skipped"] == []
     assert s["dock_visits"] == 1 and s["low_battery_events"] == 1 and s["retries"] == 0
     assert any("'b' interrupted" in line for line in r.logs())
+
+
+def dock_with_low_battery(max_retries=2, level=0.15):
+    """A cruise parked at the dock (the dock goal reached) with the battery at level."""
+    r = Run(laps=1, dock=DOCK, max_retries=max_retries)
+    r.start()
+    r.battery(level)
+    r.finish(cr.PREEMPTED, dt=0.2)
+    r.finish(dt=20.0)
+    assert r.cruise.activity == cr.CHARGING
+    return r
+
+
+def test_a_charger_that_does_not_engage_sends_the_dock_goal_again_then_stops():
+    """The dock goal was reached 0.35 m from the dock (xy_goal_tolerance plus amcl's
+    error; the charger needs 0.3 m): the cruise waited for resume_battery while the
+    battery ran flat, the critical stop disabled by "charging"."""
+    r = dock_with_low_battery(max_retries=2)
+    for arrival in (1, 2, 3):
+        for _ in range(10):                   # 10 s of 1 Hz messages: discharging
+            out = r.battery(r.cruise.percentage - 0.001, dt=1.0, status=cr.POWER_DISCHARGING)
+        if arrival < 3:
+            assert r.sends()[-1] == "dock" and r.sends().count("dock") == arrival + 1
+            assert "the charger did not engage" in out[0].text and f"retry {arrival} of 2" in out[0].text
+            assert r.cruise.activity == cr.TO_DOCK
+            r.finish(dt=5.0)                  # at the dock again
+    s = r.summary()
+    assert s["state"] == cr.DOCK_UNREACHABLE and "the charger did not engage" in s["reason"]
+    assert s["retries"] == 2 and s["dock_visits"] == 1 and r.cruise.status()[0] == cr.ERROR
+
+
+def test_a_charger_that_engages_late_within_the_timeout_is_waited_for():
+    r = dock_with_low_battery()
+    r.battery(0.149, dt=1.0, status=cr.POWER_DISCHARGING)   # the status lags the arrival
+    assert dict(r.cruise.status().values)["battery action"] == "waiting for the charger"
+    for _ in range(20):
+        assert r.battery(r.cruise.percentage + 0.005, dt=1.0, status=cr.POWER_CHARGING) == []
+    assert r.sends()[-1] == "dock" and r.sends().count("dock") == 1
+    out = r.battery(0.5, dt=1.0, status=cr.POWER_FULL)      # the charger says full: on
+    assert r.sends()[-1] == "a" and "charged (50.0 %)" in out[0].text
+
+
+def test_at_the_dock_without_the_charger_the_critical_stop_applies():
+    r = Run(laps=1, dock=DOCK)
+    r.start()
+    r.battery(0.15)
+    r.finish(cr.PREEMPTED, dt=0.2)
+    r.feedback(-0.95, dt=30.0)               # beside the dock: below critical is no stop yet
+    r.battery(0.045)
+    r.finish(dt=1.0)
+    for k in range(12):                      # the charger works: a level below critical is fine
+        r.battery(0.045 + 0.0001 * k, dt=1.0, status=cr.POWER_CHARGING)
+    assert not r.cruise.done and r.cruise.activity == cr.CHARGING
+    out = r.battery(0.044, dt=1.0, status=cr.POWER_NOT_CHARGING)   # it stopped charging
+    assert isinstance(out[-1], cr.Finish) and out[-1].summary["state"] == cr.CRITICAL
+
+
+def test_charging_while_the_level_keeps_falling_is_not_charging():
+    r = dock_with_low_battery()
+    for _ in range(10):
+        out = r.battery(r.cruise.percentage - 0.002, dt=1.0, status=cr.POWER_CHARGING)
+    assert "the charger did not engage" in out[0].text and r.sends()[-1] == "dock"
+    assert r.sends().count("dock") == 2
+
+
+def test_a_driver_without_a_status_is_judged_by_the_level_rising():
+    """power_supply_status UNKNOWN (a driver that never sets it): the charger works when
+    the level rises over each charge_start_timeout, as before the status was read."""
+    r = dock_with_low_battery()
+    for _ in range(30):
+        assert r.battery(r.cruise.percentage + 0.002, dt=1.0) == []
+    assert r.sends().count("dock") == 1 and not r.cruise.done
+    for _ in range(10):
+        out = r.battery(r.cruise.percentage, dt=1.0)       # flat for a window: not charging
+    assert "the charger did not engage" in out[0].text and "status unknown" in out[0].text
 
 
 def test_a_waypoint_reached_while_the_battery_cancel_travels_counts_and_the_cruise_resumes_after_it():
@@ -340,6 +417,8 @@ def test_bad_parameters_are_refused():
         cr.Cruise([A], laps=-1)
     with pytest.raises(ValueError, match="critical_battery"):
         cr.Cruise([A], battery=cr.BatteryLimits(low=0.5, resume=0.4))
+    with pytest.raises(ValueError, match="charge_start_timeout"):
+        cr.Cruise([A], battery=cr.BatteryLimits(charge_start_timeout=0.0))
 
 
 # -- the waypoint file ----------------------------------------------------------------------

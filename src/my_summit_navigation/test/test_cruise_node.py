@@ -117,7 +117,8 @@ def test_an_unusable_battery_message_is_ignored_with_one_warning_naming_the_topi
     assert n.events.empty()
     assert len(ros.warnings) == 1 and "/battery_state" in ros.warnings[0] and problem in ros.warnings[0]
     n._on_battery(battery_msg(0.5))
-    assert n.events.get_nowait() == ("battery", 0.5) and len(ros.warnings) == 1
+    assert n.events.get_nowait() == ("battery", 0.5, BatteryState.POWER_SUPPLY_STATUS_UNKNOWN)
+    assert len(ros.warnings) == 1
 
 
 def test_battery_messages_from_the_wait_for_move_base_are_handled_before_the_first_goal(ros):
@@ -137,3 +138,17 @@ def test_other_events_queued_at_the_start_wait_for_the_loop(ros):
     n.run()                                   # the loop does not run (is_shutdown)
     assert n.client.goals == [A.spot] and n.cruise.percentage == pytest.approx(0.8)
     assert list(n.events.queue) == [("home",)]
+
+
+def test_the_power_supply_status_reaches_the_cruise(ros):
+    """The charger's state comes from BatteryState.power_supply_status: the cruise
+    re-sends the dock goal when it is not CHARGING within ~charge_start_timeout."""
+    n = node()
+    n.client.on_wait = lambda: n._on_battery(battery_msg(0.1))
+    n.run()
+    n._handle(("done", n.cruise._goal.goal_id, cr.SUCCEEDED, ""))     # docked
+    msg = battery_msg(0.2)
+    msg.power_supply_status = BatteryState.POWER_SUPPLY_STATUS_CHARGING
+    n._on_battery(msg)
+    n._handle(n.events.get_nowait())
+    assert n.cruise.power_status == cr.POWER_CHARGING

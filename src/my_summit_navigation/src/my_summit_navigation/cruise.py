@@ -9,17 +9,30 @@ with their time stamps and answering with commands:
 
 - events: ``start``, ``goal_done`` (move_base's terminal state and text), ``feedback``
   (the robot's position from move_base's feedback), ``battery`` (BatteryState's
-  percentage, 0..1; ``battery_problem`` tells which messages to drop), ``tick`` (time
-  passing), ``return_home``;
+  percentage, 0..1, and power_supply_status; ``battery_problem`` tells which messages
+  to drop), ``tick`` (time passing), ``return_home``;
 - commands: ``Send`` a goal, ``Cancel`` it, ``ClearCostmaps``, ``Log`` a line,
   ``Finish`` with the summary (a dict; JSON for auto_navigator's ~summary).
 
 The rules: SUCCEEDED -> next waypoint; ABORTED / REJECTED, or no progress for
 movement_timeout [s] (cancel first) -> clear the costmaps and retry while max_retries are
 left, then skip the waypoint with the reason. Battery below low_battery -> cancel, drive
-to the dock, wait there until resume_battery, resume at the interrupted waypoint (same
-lap, same index; not a skip). Below critical_battery away from the dock -> cancel and
-stop ("critical"). A dock goal that fails after its retries -> stop ("dock_unreachable").
+to the dock, wait there until resume_battery (or the status FULL), resume at the
+interrupted waypoint (same lap, same index; not a skip). Below critical_battery away
+from the dock, or at the dock while not charging -> cancel and stop ("critical"). A dock
+goal that fails after its retries -> stop ("dock_unreachable").
+
+Reaching the dock goal does not mean charging: move_base's tolerance plus the
+localization error can leave the robot beside the charger's contacts. At the dock the
+cruise checks the charger every charge_start_timeout [s] from the arrival, on the
+battery messages: it works when the last status is CHARGING or FULL and the level has
+not fallen since the check before, or, for a driver that reports no status (UNKNOWN),
+when the level has risen. When it does not, the dock goal is sent again (a retry, as
+for an aborted goal); after max_retries the cruise stops ("dock_unreachable", the
+charger did not engage). Between the checks the charger counts as working by the same
+rule with "not fallen" for UNKNOWN, and the critical stop applies when it does not; in
+the first charge_start_timeout after an arrival it counts as working (the charger and
+the status may take a message or two to switch on).
 No battery message within battery_timeout [s] -> one warning, cruise without battery
 handling until one comes.
 
@@ -41,6 +54,10 @@ from summit_nav_common.route import RouteError, parse_pose, read_route
 
 NEXT, RETRY, SKIP = "next", "retry", "skip"
 SUCCEEDED, ABORTED, PREEMPTED, REJECTED = 3, 4, 2, 5   # actionlib_msgs/GoalStatus
+# sensor_msgs/BatteryState power_supply_status
+POWER_UNKNOWN, POWER_CHARGING, POWER_DISCHARGING, POWER_NOT_CHARGING, POWER_FULL = 0, 1, 2, 3, 4
+POWER_STATUS_NAMES = {POWER_UNKNOWN: "unknown", POWER_CHARGING: "charging", POWER_DISCHARGING: "discharging",
+                      POWER_NOT_CHARGING: "not charging", POWER_FULL: "full"}
 
 # End states of a run (the summary's "state")
 COMPLETED, CRITICAL, DOCK_UNREACHABLE, STOPPED = "completed", "critical", "dock_unreachable", "stopped"
@@ -250,16 +267,19 @@ class BatteryLimits:
 
     low: float = 0.2         # below: go to the dock
     resume: float = 0.9      # at the dock, at or above: cruise on
-    critical: float = 0.05   # below, away from the dock: stop
+    critical: float = 0.05   # below, away from the dock or at it without charging: stop
     timeout: float = 5.0     # [s] without any battery message: cruise without battery handling
+    charge_start_timeout: float = 10.0  # [s] at the dock, between checks that the charger works
 
     def check(self):
-        """ValueError unless 0 <= critical < low < resume <= 1 and timeout > 0."""
+        """ValueError unless 0 <= critical < low < resume <= 1 and both timeouts > 0."""
         if not (0.0 <= self.critical < self.low < self.resume <= 1.0):
             raise ValueError(f"battery thresholds: need 0 <= critical_battery ({self.critical}) < low_battery "
                              f"({self.low}) < resume_battery ({self.resume}) <= 1")
         if not self.timeout > 0:
             raise ValueError(f"battery_timeout must be > 0 s, got {self.timeout}")
+        if not self.charge_start_timeout > 0:
+            raise ValueError(f"charge_start_timeout must be > 0 s, got {self.charge_start_timeout}")
         return self
 
 
@@ -325,6 +345,9 @@ class Cruise:
         self.dock_visits = 0
         self.low_battery_events = 0
         self.percentage = None          # last BatteryState.percentage, None before any
+        self.power_status = POWER_UNKNOWN   # last BatteryState.power_supply_status
+        self.charge_retries = 0         # dock goals re-sent this visit because the charger did not engage
+        self._charge_check = None       # at the dock: (since [s], level then, first window after arrival)
         self.battery_missing = False    # warned that none came within the timeout
         self.no_dock_warned = False
         self.position = None            # (x, y) [m] from the last feedback
@@ -349,7 +372,7 @@ class Cruise:
         if self.activity == TO_DOCK:
             return "going to the dock"
         if self.activity == CHARGING:
-            return "charging"
+            return "charging" if self._charger_works(rising=False) else "waiting for the charger"
         if self.percentage is None:
             return "no battery data" if self.battery_missing else "waiting for battery data"
         if self.percentage < self.battery_limits.low and self.dock is None:
@@ -397,9 +420,12 @@ class Cruise:
                 "time_s": round(end - self._t0, 1) if self._t0 is not None else 0.0}
 
     def at_dock(self):
-        """Charging, or within DOCK_RADIUS of the dock by the last feedback."""
+        """Charging (the charger works, or may still engage: the first charge_start_timeout
+        after the arrival), or, on the way, within DOCK_RADIUS of the dock by the last
+        feedback. Parked at the dock with the charger off is not at the dock: the
+        critical stop applies there."""
         if self.activity == CHARGING:
-            return True
+            return self._charge_check[2] or self._charger_works(rising=False)
         return self.dock is not None and self.position is not None and \
             math.hypot(self.position[0] - self.dock.spot.x, self.position[1] - self.dock.spot.y) <= DOCK_RADIUS
 
@@ -454,12 +480,14 @@ class Cruise:
             return self._stuck(now)
         return []
 
-    def battery(self, percentage, now):
-        """A BatteryState's percentage (0..1) at time now."""
+    def battery(self, percentage, now, status=POWER_UNKNOWN):
+        """A BatteryState's percentage (0..1) and power_supply_status (POWER_*; UNKNOWN
+        for a driver that does not report it) at time now."""
         out = []
         if self.battery_missing and self.percentage is None:
             out.append(Log(OK, f"battery data arrived ({_pct(percentage)}): battery handling on"))
         self.percentage = float(percentage)
+        self.power_status = int(status)
         if self.done or self.activity is None:
             return out
         lim = self.battery_limits
@@ -472,9 +500,9 @@ class Cruise:
                 self._goal = self._cancel = None
             return out + self._finish(CRITICAL, text, now)
         if self.activity == CHARGING:
-            if self.percentage >= lim.resume:
+            if self.percentage >= lim.resume or self.power_status == POWER_FULL:
                 return out + self._resume(now)
-            return out
+            return out + self._check_charger(now)
         if self.percentage < lim.low and self.activity in (CRUISING, RETRYING, RECOVERING):
             if self.dock is None:
                 if not self.no_dock_warned:
@@ -597,9 +625,11 @@ class Cruise:
     def _dock_done(self, state, text, stuck, took, now):
         action, reason = decide(state, text, self.attempt, self.max_retries, stuck)
         if action == NEXT:
-            self.dock_visits += 1
+            if self.charge_retries == 0:     # a charger retry is the same visit
+                self.dock_visits += 1
             self.activity = CHARGING
             self.attempt = 0
+            self._charge_check = (now, self.percentage, True)
             out = [Log(OK, f"at the dock after {took:.1f} s (visit {self.dock_visits}); charging to "
                            f"{_pct(self.battery_limits.resume)}")]
             if self.percentage is None or self.percentage >= self.battery_limits.resume:
@@ -617,7 +647,41 @@ class Cruise:
                        f"resuming at {self.log.prefix} {self.lap}, '{stop.name if stop else '(lap end)'}'")]
         self.activity = CRUISING
         self.attempt = 0
+        self.charge_retries = 0
         return out + self._advance(now)
+
+    def _charger_works(self, rising):
+        """At the dock: the charger works by the last message (the module docstring's
+        rule); rising: a driver without a status must show the level risen, not only
+        not fallen."""
+        level0 = self._charge_check[1]
+        if self.percentage is None or level0 is None:
+            return True             # no battery data: nothing to judge by
+        if self.power_status == POWER_UNKNOWN:
+            return self.percentage > level0 if rising else self.percentage >= level0
+        return self.power_status in (POWER_CHARGING, POWER_FULL) and self.percentage >= level0
+
+    def _check_charger(self, now):
+        """Every charge_start_timeout at the dock: the charger works -> wait on; it does
+        not -> re-send the dock goal, or stop after max_retries."""
+        since, level0, _first = self._charge_check
+        timeout = self.battery_limits.charge_start_timeout
+        if now - since < timeout:
+            return []
+        if self._charger_works(rising=True):
+            self._charge_check = (now, self.percentage, False)
+            return []
+        seen = (f"status {POWER_STATUS_NAMES.get(self.power_status, self.power_status)}, level "
+                f"{_pct(level0)} -> {_pct(self.percentage)} in {now - since:.1f} s")
+        if self.charge_retries >= self.max_retries:
+            text = (f"the dock cannot be reached: the charger did not engage ({seen}) after "
+                    f"{self.charge_retries + 1} arrival(s); stopping here")
+            return [Log(ERROR, text)] + self._finish(DOCK_UNREACHABLE, text, now)
+        self.charge_retries += 1
+        self.log.retried += 1
+        out = [Log(WARN, f"dock: the charger did not engage ({seen}): sending the dock goal again "
+                         f"(retry {self.charge_retries} of {self.max_retries})")]
+        return out + self._go_dock(now)
 
     def _finish(self, state, reason, now):
         self.end_state, self.end_reason = state, reason

@@ -22,6 +22,11 @@ Parameters both nodes read (read_common_params):
         move_base are handled before the first goal (a low battery: the dock first)
   ~low_battery (0.2), ~resume_battery (0.9), ~critical_battery (0.05): fractions of a charge
   ~battery_timeout (float [s], 5): no battery message by then -> one warning, cruise on
+  ~charge_start_timeout (float [s], 10): at the dock, the charger must work within this
+        long and keep working over each such period (power_supply_status CHARGING or
+        FULL with the level not falling; a driver that reports UNKNOWN: the level
+        rising), else the dock goal is sent again (a retry; after ~max_retries the
+        cruise stops, dock_unreachable)
 """
 import json
 import queue
@@ -57,7 +62,9 @@ def read_common_params(stuck_timeout_alias=False):
             "battery": cr.BatteryLimits(low=float(rospy.get_param("~low_battery", 0.2)),
                                         resume=float(rospy.get_param("~resume_battery", 0.9)),
                                         critical=float(rospy.get_param("~critical_battery", 0.05)),
-                                        timeout=float(rospy.get_param("~battery_timeout", 5.0))).check()}
+                                        timeout=float(rospy.get_param("~battery_timeout", 5.0)),
+                                        charge_start_timeout=float(rospy.get_param("~charge_start_timeout",
+                                                                                   10.0))).check()}
 
 
 class CruiseNode:
@@ -88,7 +95,7 @@ class CruiseNode:
     def _on_battery(self, msg):
         problem = cr.battery_problem(msg.percentage, msg.present)
         if problem is None:
-            self.events.put(("battery", msg.percentage))
+            self.events.put(("battery", msg.percentage, msg.power_supply_status))
             return
         if problem not in self._battery_warned:
             self._battery_warned.add(problem)
@@ -183,7 +190,7 @@ class CruiseNode:
         if kind == "feedback":
             return self.cruise.feedback(event[1], event[2], event[3], now)
         if kind == "battery":
-            return self.cruise.battery(event[1], now)
+            return self.cruise.battery(event[1], now, event[2])
         accepted, cmds = self.cruise.return_home(now)
         if accepted:
             rospy.loginfo("return home requested: interrupting the cruise")
