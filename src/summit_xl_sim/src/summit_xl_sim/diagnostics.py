@@ -19,9 +19,12 @@ def pace_check(factor: Optional[float], speed: float, min_ratio: float = MIN_RAT
     """The achieved real-time factor against the asked one.
 
     factor: simulated seconds per wall second over the last window (Pacer.factor; None:
-    no wall time yet); speed: the asked ~speed (<= 0: as fast as possible, never a WARN).
-    WARN when factor < min_ratio x speed: the machine does not keep up, simulated time
-    runs slower than asked (the nodes see the same rates of simulated time, later).
+    no wall time yet); speed: the asked ~speed (<= 0: as fast as possible).
+    Always OK: a simulator that does not keep up slows simulated time down (SPEC: a busy
+    machine slows the run, it does not break it), so every node still sees its rates of
+    simulated time; that is the machine's state, not the robot's, and a WARN here would
+    turn the whole Navigation Stack WARN whenever a laptop is busy. Below min_ratio x
+    speed the message says so, for the operator who asked for the speed.
     """
     values = (("real-time factor", fmt(float(factor)) if factor is not None else "n/a"),
               ("asked speed", fmt(float(speed)) if speed > 0 else "as fast as possible"))
@@ -30,8 +33,8 @@ def pace_check(factor: Optional[float], speed: float, min_ratio: float = MIN_RAT
     if speed <= 0:
         return Check(OK, f"{factor:.2f}x real time (as fast as possible)", values)
     if factor < min_ratio * speed:
-        return Check(WARN, f"running at {factor:.2f}x real time, below {min_ratio:.0%} of the {speed:g}x "
-                           f"asked: the machine does not keep up", values)
+        return Check(OK, f"running at {factor:.2f}x real time, below {min_ratio:.0%} of the {speed:g}x "
+                         f"asked: the machine does not keep up (simulated time slows, nothing breaks)", values)
     return Check(OK, f"{factor:.2f}x real time ({speed:g}x asked)", values)
 
 
