@@ -60,6 +60,7 @@ class RaceTrack(unittest.TestCase):
         self.current = None
         self.current_id = None
         self.final = {}          # goal id -> final actionlib status
+        self.target_of = {}      # goal id -> its target (a result is matched by its goal's id)
         self.summary = lu.Latest("/auto_navigator/summary", String)
         rospy.Subscriber("/move_base/goal", MoveBaseActionGoal, self.on_goal, queue_size=10)
         rospy.Subscriber("/move_base/result", MoveBaseActionResult, self.on_result, queue_size=10)
@@ -77,6 +78,7 @@ class RaceTrack(unittest.TestCase):
         with self.lock:
             self.current = self.target((p.x, p.y))
             self.current_id = msg.goal_id.id
+            self.target_of[msg.goal_id.id] = self.current
             self.goals.append((rospy.Time.now().to_sec(), self.current))
 
     def on_result(self, msg):
@@ -85,9 +87,10 @@ class RaceTrack(unittest.TestCase):
         if msg.status.status != GoalStatus.SUCCEEDED or self.truth.pose is None:
             return
         with self.lock:
-            if isinstance(self.current, int):
-                x, y = self.wps[self.current]
-                self.reached.append((self.current, math.hypot(self.truth.pose[0] - x, self.truth.pose[1] - y)))
+            target = self.target_of.get(msg.status.goal_id.id)
+            if isinstance(target, int):
+                x, y = self.wps[target]
+                self.reached.append((target, math.hypot(self.truth.pose[0] - x, self.truth.pose[1] - y)))
 
     def wait_summary(self):
         lu.wait_for(lambda: self.summary.msg is not None, "/auto_navigator/summary", WALL_LIMIT)
