@@ -265,3 +265,130 @@ def test_truth_is_taken_into_the_map_frame():
     assert_allclose(turned[0, 1:4], (0.0, 0.0, 0.5 - math.pi / 2), atol=1e-12)
     with pytest.raises(h.HealthError, match="--map-in-world"):
         h.parse_pose_arg("2,7", "--map-in-world")
+
+
+# --- laps by the cruise's waypoint goals ------------------------------------------------
+
+SUCCEEDED, PREEMPTED, ABORTED = 3, 2, 4
+ROUTE = [(5.0, -6.5), (8.0, 1.8), (-4.0, -6.5)]   # first (the gate), middle, last
+DOCK_XY = (0.0, -4.0)
+
+
+class GoalLog:
+    """move_base's goals and results as nav_health records them."""
+
+    def __init__(self):
+        self.goals, self.results, self.n = [], [], 0
+
+    def drive(self, t_sent, xy, t_done, status=SUCCEEDED):
+        self.n += 1
+        gid = f"/auto_navigator-{self.n}-{t_sent}"
+        self.goals.append((t_sent, gid, xy[0] + 0.01, xy[1] - 0.01))   # within the 0.05 m
+        self.results.append((t_done, gid, status))
+
+    def lap(self, t, leg=10.0, skip_last=False):
+        """One lap from t [s], legs of leg [s]; the last waypoint aborted three times (the
+        cruise gives up on it) when skip_last. Returns the lap's end time."""
+        for wp in ROUTE[:-1]:
+            self.drive(t, wp, t + leg)
+            t += leg
+        for _ in range(3 if skip_last else 1):
+            self.drive(t, ROUTE[-1], t + leg, ABORTED if skip_last else SUCCEEDED)
+            t += leg
+        return t
+
+
+def test_waypoint_laps_end_at_the_last_waypoints_success_and_ignore_a_dock_detour():
+    """Lap 2 is cut by a dock visit (its middle goal preempted, the dock goal, then the
+    same waypoint again): still one lap; the dock goal and its result count for nothing."""
+    g = GoalLog()
+    t = g.lap(0.0)                              # lap 1: 0..30 s
+    g.drive(t, ROUTE[0], t + 10)                # lap 2 ...
+    g.drive(t + 10, ROUTE[1], t + 12, PREEMPTED)   # battery low: canceled
+    g.drive(t + 12, DOCK_XY, t + 20)            # the dock (through the gate and back)
+    g.drive(t + 80, ROUTE[1], t + 90)           # charged: the same waypoint again
+    g.drive(t + 90, ROUTE[-1], t + 100)         # ... lap 2 ends at 130 s
+    t = g.lap(t + 100)                          # lap 3: 130..160 s
+    g.drive(t, ROUTE[0], t + 10)                # an unfinished lap 4
+    assert h.waypoint_laps(g.goals, g.results, ROUTE) == [0.0, 30.0, 130.0, 160.0]
+
+
+def test_a_skipped_last_waypoint_ends_its_lap_when_the_next_lap_begins():
+    """Documented rule: the lap whose last waypoint the cruise gave up on ends when the
+    first waypoint's goal of the next lap is sent; the failed retries end nothing; a run
+    that ends after such a lap leaves it unfinished."""
+    g = GoalLog()
+    t = g.lap(0.0, skip_last=True)              # 0..20 s, then 3 failed tries until 50 s
+    assert t == 50.0
+    t = g.lap(t)                                # lap 2: 50..80 s
+    t = g.lap(t, skip_last=True)                # lap 3: 80.., its last skipped, run ends
+    assert h.waypoint_laps(g.goals, g.results, ROUTE) == [0.0, 50.0, 80.0]
+
+
+def test_waypoint_laps_joined_mid_lap_and_a_route_ending_where_it_starts():
+    g = GoalLog()
+    g.drive(0.0, ROUTE[1], 10.0)                # the report began mid-lap
+    g.drive(10.0, ROUTE[2], 20.0)               # the partial lap leads in: laps from 20 s
+    t = g.lap(20.0)
+    assert h.waypoint_laps(g.goals, g.results, ROUTE) == [20.0, 50.0]
+    assert h.waypoint_laps([], [], ROUTE) == [] and h.waypoint_laps(g.goals, g.results, []) == []
+    # a loop whose last waypoint is its first: A B A | A B A
+    loop = [(0.0, 0.0), (5.0, 0.0), (0.0, 0.0)]
+    g = GoalLog()
+    for t in (0.0, 30.0):
+        for k, wp in enumerate(loop):
+            g.drive(t + 10 * k, wp, t + 10 * (k + 1))
+    assert h.waypoint_laps(g.goals, g.results, loop) == [0.0, 30.0, 60.0]
+    # a result stamped with its goal's own time is still matched to it
+    g = GoalLog()
+    g.drive(0.0, ROUTE[0], 5.0)
+    g.drive(5.0, ROUTE[1], 9.0)
+    g.drive(9.0, ROUTE[2], 9.0)
+    assert h.waypoint_laps(g.goals, g.results, ROUTE) == [0.0, 9.0]
+
+
+def test_report_counts_laps_by_waypoint_goals_not_gate_passes():
+    """A robot going round a 60 s circle whose gate it passes twice more on a dock
+    detour (at 70 s and 80 s, straight through it): the gate rule counts the detour's
+    passes, the goals do not; without goals the gate rule stays, and says so."""
+    t = np.arange(0.0, 200.0, 0.1)
+    x, y, yaw = circle_track(t)
+    gate = (x[0], y[0])
+    far = (gate[0] - 6.0, gate[1])                        # a detour through the gate
+    detour = (t > 65) & (t < 85)
+    frac = np.abs((t[detour] - 75.0) / 10.0)               # gate at 65, far at 75, gate at 85
+    x[detour] = gate[0] + (far[0] - gate[0]) * (1 - frac)
+    y[detour] = gate[1]
+    rec = h.Recording()
+    rec.truth = list(zip(t, x, y, yaw, np.full_like(t, 0.3)))
+    at = lambda s: tuple(np.ravel(v)[0] for v in circle_track(np.array([s]))[:2])  # noqa: E731
+    route = [at(0.0), at(20.0), at(40.0)]
+    g = GoalLog()
+    for lap_t0, wps in ((0.0, [(0, 20), (1, 20), (2, 20)]), (60.0, [(0, 35), (1, 20), (2, 20)]),
+                        (135.0, [(0, 20), (1, 20), (2, 20)])):
+        tt = lap_t0
+        for i, leg in wps:
+            g.goals.append((tt, f"g{len(g.goals)}", *route[i]))
+            g.results.append((tt + leg, f"g{len(g.results)}", SUCCEEDED))
+            tt += leg
+    rec.goals, rec.results = g.goals, g.results
+    by_goals = h.build_report(rec, 0.0, 200.0, waypoints=route, gate=gate)
+    laps = by_goals["laps"]
+    assert laps["rule"] == h.RULE_WAYPOINTS and laps["completed"] == 3 and laps["waypoint_goals"] == 9
+    assert laps["times_s"] == [60.0, 75.0, 60.0] and laps["boundaries_s"][0] == 0.0
+    rows = {m: v for m, v, _, _ in h.check_rows(by_goals)}
+    assert rows["laps completed (by waypoint goals)"] == "3" and rows["lap time mean [s]"] == "65.0"
+    rule, times, idx = h.lap_boundaries(np.asarray(rec.truth), rec.goals, rec.results, route)
+    assert rule == h.RULE_WAYPOINTS and times == [0.0, 60.0, 135.0, 195.0]
+    assert_allclose(t[idx], times, atol=0.1 + 1e-9)   # the first truth sample at or after each
+    rec.goals, rec.results = [], []                       # teleoperated: no goals
+    by_gate = h.build_report(rec, 0.0, 200.0, waypoints=route, gate=gate)
+    assert by_gate["laps"]["rule"] == h.RULE_GATE and by_gate["laps"]["completed"] > 3
+    assert "laps completed (by gate passes)" in {m for m, _, _, _ in h.check_rows(by_gate)}
+
+
+def test_anonymous_node_names():
+    assert h.is_anonymous("/bench_race_track_31721_1795847153881")
+    assert h.is_anonymous("/rostopic_4242_1700000000000") and h.is_anonymous("/nav_health_12_34")
+    for name in ("/amcl", "/move_base", "/summit_xl_sim", "/robot_1/amcl", "/node_2"):
+        assert not h.is_anonymous(name)

@@ -17,9 +17,15 @@ topics into a Recording; everything here is arrays in, numbers and pictures out:
   plan between two statuses still counts for the worst;
 - ``window_rates``: messages per second in consecutive 1 s windows of simulated time that
   lie wholly inside the intervals where a goal was active (``rostopic hz`` while driving);
+- ``is_anonymous``: a node name made by rospy's anonymous=True (a tool's node, left out
+  of the per-node checks);
 - ``cpu_percent``: CPU seconds over wall seconds of a process, as top shows it (% of one
   core), and per simulated second;
-- ``split_laps``: the truth path cut at each return through a gate (a point on the
+- ``waypoint_laps``: the cruise's laps from move_base's goals and results: a lap ends
+  when the goal of the route's last waypoint succeeds (``lap_boundaries`` cuts the truth
+  path at those times); the rule whenever goals to the waypoints were seen;
+- ``split_laps``: the fallback without waypoint goals (a teleoperated robot, no
+  --waypoints): the truth path cut at each return through a gate (a point on the
   circuit, e.g. the first waypoint) after having left it;
 - ``dock_visits``: the spans where the robot stood (speed below ``stop_speed``) within
   ``radius`` of the dock pose;
@@ -29,6 +35,7 @@ topics into a Recording; everything here is arrays in, numbers and pictures out:
   BGR arrays; ``encode_png`` gives the bytes for summit_nav_common.files.write_atomic.
 """
 import math
+import re
 from dataclasses import dataclass, field
 
 import cv2
@@ -51,6 +58,11 @@ DOCK_RADIUS = 0.3         # [m] the simulator's charger: robot stopped within 0.
 STOP_SPEED = 0.02         # [m/s] below this the robot stands (the truth's speed)
 GATE_RADIUS = 1.0         # [m] passing this close to the lap gate completes a lap...
 GATE_LEAVE = 3.0          # [m] ...once the robot has been this far from it since the last pass
+WAYPOINT_TOL = 0.05       # [m] a move_base goal this close to a waypoint is that waypoint's goal
+GOAL_SUCCEEDED = 3        # actionlib_msgs/GoalStatus.SUCCEEDED
+RULE_WAYPOINTS, RULE_GATE = "waypoints", "gate"
+ANONYMOUS_NAME = re.compile(r"_\d+_\d+$")   # rospy's anonymous=True suffix: _<pid>_<ms stamp>
+ANONYMOUS_WHY = "anonymous (a tool's node)"
 
 PASS, FAIL, NO_DATA, INFO = "PASS", "FAIL", "no data", ""
 
@@ -69,7 +81,9 @@ class Recording:
     plan_times: (t, last plan time [s]) per new planning attempt; plan_max: (t, max plan
     time [s]) each time move_base's longest rose during the report (PlanSampler); cmd_vel:
     receive times; goal_active: (t, active bool) at each /move_base/status message;
-    battery: (t, percentage 0-1, charging bool).
+    battery: (t, percentage 0-1, charging bool); goals: (t, goal id, x [m], y [m]) of each
+    move_base goal sent (its target in the map frame); results: (t, goal id, status) of
+    each move_base result (actionlib_msgs/GoalStatus codes).
     """
 
     amcl: list = field(default_factory=list)
@@ -79,6 +93,8 @@ class Recording:
     cmd_vel: list = field(default_factory=list)
     goal_active: list = field(default_factory=list)
     battery: list = field(default_factory=list)
+    goals: list = field(default_factory=list)
+    results: list = field(default_factory=list)
 
 
 # --- statistics ------------------------------------------------------------------------
@@ -135,6 +151,13 @@ class PlanSampler:
         last = _number(values.get("last plan time [s]")) if count != prev[0] else None
         rose = longest is not None and (prev[1] is None or longest > prev[1])
         return last, longest if rose else None
+
+
+def is_anonymous(node_name):
+    """True for a node name that rospy's anonymous=True made (it ends in _<pid>_<stamp>,
+    e.g. /bench_race_track_31721_1795847153881, /rostopic_4242_1700000000000): a tool's
+    node, whose CPU and memory the report lists as not measured."""
+    return bool(ANONYMOUS_NAME.search(str(node_name)))
 
 
 def interpolate_track(t_query, t, x, y, yaw, max_gap=TRUTH_MAX_GAP):
@@ -259,6 +282,92 @@ def split_laps(xy, gate, gate_radius=GATE_RADIUS, leave=GATE_LEAVE, finish=None)
     return bounds
 
 
+def waypoint_laps(goals, results, waypoints, tol=WAYPOINT_TOL):
+    """Lap boundary times [s] of a cruise over waypoints [(x, y) [m], in driving order],
+    from move_base's goals [(t, goal id, x, y)] and results [(t, goal id, status)].
+
+    A goal is a waypoint's when its target lies within tol [m] of it (the nearest; a
+    target at two waypoints, a route whose last waypoint repeats its first, is the last
+    one when goals to other waypoints were sent since the previous boundary, else the
+    first); other goals (the dock, home, a goal sent by hand) are ignored. A result is
+    matched to its goal by goal id. Boundaries, in time order:
+
+    - the first goal to the first waypoint starts the first lap (when the report began
+      mid-lap, the first lap starts at the end of that partial one instead);
+    - the SUCCEEDED result of the last waypoint's goal ends a lap and starts the next
+      (one boundary per lap: only a goal sent since the previous boundary ends one);
+    - a lap whose last waypoint was skipped (its goals failed and the cruise gave up on
+      it) ends when the next lap's first goal, to the first waypoint, is sent after goals
+      to other waypoints since the previous boundary; if the run ends instead, that lap
+      stays unfinished (the cruise's own count has it, this one does not).
+
+    Retries and the resumption after a dock visit re-send the same waypoint and start
+    nothing. A result that comes no later than its goal (same stamp) is taken after it.
+    """
+    wp = np.asarray(waypoints, dtype=np.float64).reshape(-1, 2)
+    if not len(wp):
+        return []
+    last = len(wp) - 1
+    sent_at = {}
+    for t, gid, _x, _y in goals:
+        sent_at.setdefault(gid, t)
+    events = [(float(t), 1, k, ("goal", gid, x, y)) for k, (t, gid, x, y) in enumerate(goals)]
+    for k, (t, gid, status) in enumerate(results):
+        t0 = sent_at.get(gid)
+        key = (float(t), 0) if t0 is None or t0 < t else (float(t0), 2)
+        events.append(key + (k, ("result", gid, status)))
+    events.sort(key=lambda e: e[:3])
+    bounds, goal_index, goal_seq = [], {}, {}
+    others, seq, seq_at_bound = False, 0, 0    # a goal to another waypoint since the boundary
+    for t, _, _, ev in events:
+        if ev[0] == "goal":
+            _, gid, x, y = ev
+            seq += 1
+            d = np.hypot(wp[:, 0] - x, wp[:, 1] - y)
+            near = np.flatnonzero(d <= tol)
+            if not len(near):
+                continue
+            close = near[d[near] <= d[near].min() + 1e-9]
+            i = int(close.max() if others else close.min())
+            goal_index[gid], goal_seq[gid] = i, seq
+            if i == 0 and (not bounds or others):
+                bounds.append(t)
+                others, seq_at_bound = False, seq - 1   # this goal is of the new lap
+            elif i != 0:
+                others = True
+        else:
+            _, gid, status = ev
+            if status == GOAL_SUCCEEDED and goal_index.get(gid) == last and goal_seq[gid] > seq_at_bound:
+                bounds.append(t)
+                others, seq_at_bound = False, seq
+    return bounds
+
+
+def waypoint_goal_count(goals, waypoints, tol=WAYPOINT_TOL):
+    """How many of the goals [(t, goal id, x, y)] are to one of the waypoints [(x, y)]."""
+    wp = np.asarray(waypoints, dtype=np.float64).reshape(-1, 2)
+    if not len(wp):
+        return 0
+    return sum(1 for _t, _gid, x, y in goals if np.any(np.hypot(wp[:, 0] - x, wp[:, 1] - y) <= tol))
+
+
+def lap_boundaries(truth, goals=(), results=(), waypoints=None, gate=None, finish=None):
+    """(rule, boundary times [s], indices into truth) of the laps of a sorted truth track
+    (N, >= 3: stamp, x, y, ...): RULE_WAYPOINTS (waypoint_laps; each time's index is the
+    first truth sample at or after it) when waypoints are given and a goal to one of them
+    was seen, else RULE_GATE (split_laps through gate, default the first truth position,
+    and finish)."""
+    truth = np.asarray(truth, dtype=np.float64)
+    if waypoints is not None and len(waypoints) and waypoint_goal_count(goals, waypoints):
+        times = waypoint_laps(goals, results, waypoints)
+        idx = np.searchsorted(truth[:, 0], times, side="left") if len(truth) else np.zeros(len(times), int)
+        return RULE_WAYPOINTS, [float(v) for v in times], [int(min(i, max(0, len(truth) - 1))) for i in idx]
+    if gate is None and len(truth):
+        gate = tuple(truth[0, 1:3])
+    bounds = split_laps(truth[:, 1:3], gate, finish=finish) if gate is not None else []
+    return RULE_GATE, [float(truth[b, 0]) for b in bounds], bounds
+
+
 def dock_visits(t, xy, speed, dock, radius=DOCK_RADIUS, stop_speed=STOP_SPEED):
     """[(t_in, t_out)] [s] of each visit to the dock (x, y[, yaw]): a stay within radius
     [m] of it during which the robot stood (speed [m/s] below stop_speed) at least once;
@@ -322,19 +431,34 @@ def read_waypoints(path):
     return tuple(None if p is None else (p[0], p[1], math.radians(p[2])) for p in poses)
 
 
+def read_route_points(path):
+    """[(x [m], y [m])] of a route file's well-formed waypoints, in driving order (the
+    cruise skips a malformed one every lap, so it is no lap's first or last); HealthError
+    naming the file when it cannot be read."""
+    try:
+        route = read_route(path, need_waypoints=False)
+    except RouteError as e:
+        raise HealthError(f"--waypoints {e}") from None
+    return [(float(e.pose[0]), float(e.pose[1])) for e in route.waypoints if e.error is None]
+
+
 # --- the report ------------------------------------------------------------------------
 
 def _round(v, nd=4):
     return None if v is None else round(float(v), nd)
 
 
-def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=None, finish=None):
+def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=None, finish=None,
+                 waypoints=None):
     """The health.json dictionary of a Recording between t_start and t_end (simulated [s]).
 
     nodes: {name: {"pid", "cpu_percent", "cpu_s_per_sim_s", "peak_rss_mb"}} from the
-    adapter; dock: (x, y, yaw [rad]) or None; gate: (x, y) of the lap gate, default the
-    first truth position; finish: (x, y) where the last lap ends (split_laps), default the
-    gate; summary: the cruise node's parsed summary or None.
+    adapter; dock: (x, y, yaw [rad]) or None; waypoints: [(x, y)] of the cruise's route,
+    whose goals and results (rec.goals, rec.results) give the laps (waypoint_laps); gate:
+    (x, y) of the lap gate when no goal to a waypoint was seen, default the first truth
+    position; finish: (x, y) where the last lap ends (split_laps), default the gate;
+    summary: the cruise node's parsed summary or None. report["laps"]["rule"] says which
+    rule counted the laps.
     """
     truth = np.asarray(rec.truth, dtype=np.float64).reshape(-1, 5)
     truth = truth[np.argsort(truth[:, 0], kind="stable")]
@@ -374,11 +498,17 @@ def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=
                         "max_speed_m_s": _round(truth[:, 4].max(), 3) if len(truth) else None}
     if gate is None and len(truth):
         gate = tuple(truth[0, 1:3])
-    bounds = split_laps(xy, gate, finish=finish) if gate is not None else []
-    report["laps"] = {"gate": [_round(gate[0], 3), _round(gate[1], 3)] if gate is not None else None,
-                      "finish": None if finish is None else [_round(finish[0], 3), _round(finish[1], 3)],
-                      "completed": max(0, len(bounds) - 1),
-                      "times_s": [_round(truth[b, 0] - truth[a, 0], 2) for a, b in zip(bounds, bounds[1:])]}
+    rule, times, _ = lap_boundaries(truth, rec.goals, rec.results, waypoints, gate, finish)
+    by_gate = rule == RULE_GATE
+    report["laps"] = {"rule": rule,
+                      "completed": max(0, len(times) - 1),
+                      "times_s": [_round(b - a, 2) for a, b in zip(times, times[1:])],
+                      "boundaries_s": [_round(b - t_start, 2) for b in times],
+                      "waypoints": len(waypoints) if waypoints is not None else None,
+                      "waypoint_goals": waypoint_goal_count(rec.goals, waypoints) if waypoints is not None else None,
+                      "gate": [_round(gate[0], 3), _round(gate[1], 3)] if by_gate and gate is not None else None,
+                      "finish": None if not by_gate or finish is None else [_round(finish[0], 3),
+                                                                           _round(finish[1], 3)]}
     visits = dock_visits(truth[:, 0], xy, truth[:, 4], dock) if dock is not None else []
     report["dock"] = {
         "pose": None if dock is None else [_round(dock[0], 3), _round(dock[1], 3), _round(math.degrees(dock[2]), 1)],
@@ -432,7 +562,8 @@ def check_rows(report):
                  else f"{bat['start_percent']:.0f} / {bat['end_percent']:.0f} / {bat['min_percent']:.0f}", "", INFO))
     rows.append(("distance driven [m]", f"{report['motion']['distance_m']:.1f}", "", INFO))
     laps = report["laps"]
-    rows.append(("laps completed", str(laps["completed"]), "", INFO))
+    how = "by waypoint goals" if laps["rule"] == RULE_WAYPOINTS else "by gate passes"
+    rows.append((f"laps completed ({how})", str(laps["completed"]), "", INFO))
     if laps["times_s"]:
         rows.append(("lap time mean [s]", f"{np.mean(laps['times_s']):.1f}", "", INFO))
     if report["dock"]["pose"] is not None:
@@ -538,7 +669,7 @@ def draw_time_series(panels, width=820, panel_height=230, xlabel="simulated time
 def draw_laps(grid, path_xy, bounds, dock=None, visits_xy=(), title="", side=PICTURE_SIDE):
     """A BGR picture of the map (a summit_nav_common.map_io.GridMap, or None for a blank
     ground) cropped to its known cells and the path, with the truth path (N, 2 [m]) drawn
-    lap by lap (bounds from split_laps; lead-in and unfinished lap in grey), the dock
+    lap by lap (truth indices of the lap boundaries from lap_boundaries; lead-in and unfinished lap in grey), the dock
     (x, y, yaw [rad]) as a square with its heading, and each dock visit (x, y) as a
     numbered circle. A legend names the laps, and a scale bar gives metres."""
     path_xy = np.asarray(path_xy, float).reshape(-1, 2)
