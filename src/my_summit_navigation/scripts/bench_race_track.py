@@ -267,7 +267,9 @@ def watch(session, laps, speed, box, min_charges, waypoints, dock, health_dir):
     dock_goals = sum(1 for _, g in res["goals"] if g == "dock")
     box_clear = BOX_SIZE / 2 + HALF_WIDTH - CORNER_SLACK    # [m] robot centre to box centre, at least
     box_ok = box_xy is None or (box_state["dropped"] is not None and box_state["min_dist"] > box_clear)
-    charges = sum(1 for _, k in res["events"] if k == "charging")
+    # Charging stops on the way: the robot starts docked, and the charger it leaves is not one.
+    t_first_goal = res["goals"][0][0] if res["goals"] else math.inf
+    charges = sum(1 for t, k in res["events"] if k == "charging" and t > t_first_goal)
     ok = (summary is not None and accounted == laps * n_wp and res["collisions"] == 0
           and all(b["ok"] for b in battery) and all(s.get("reason") for s in skipped) and box_ok
           and charges >= min_charges)
