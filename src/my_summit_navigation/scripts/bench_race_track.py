@@ -302,6 +302,9 @@ def main(argv=None):
     tag = f"laps{args.laps}{'_adaptive' if args.adaptive else ''}{'_box' if args.box else ''}"
     health_dir = os.path.join(out_dir, tag)
     os.makedirs(health_dir, exist_ok=True)
+    for name in ("health.json", "laps.png", "battery_speed.png"):   # an earlier run's report must not be read
+        if os.path.exists(os.path.join(health_dir, name)):
+            os.remove(os.path.join(health_dir, name))
     res = run(args.laps, args.speed, args.seed, args.box, args.adaptive, args.capacity_wh, args.min_charges,
               os.path.join(out_dir, tag + ".log"), health_dir)
     res["adaptive"] = bool(args.adaptive)
