@@ -392,3 +392,11 @@ def test_anonymous_node_names():
     assert h.is_anonymous("/rostopic_4242_1700000000000") and h.is_anonymous("/nav_health_12_34")
     for name in ("/amcl", "/move_base", "/summit_xl_sim", "/robot_1/amcl", "/node_2"):
         assert not h.is_anonymous(name)
+
+
+def test_pictures_are_two_pngs_of_the_report():
+    """health.pictures: what nav_health writes as laps.png and battery_speed.png."""
+    rec, dock = synthetic_recording()
+    r = h.build_report(rec, 0.0, 130.0, {}, dock)
+    laps_png, battery_png = h.pictures(r, rec, None, dock, 0.0, (None, None, None))
+    assert laps_png[:8] == b"\x89PNG\r\n\x1a\n" and battery_png[:8] == b"\x89PNG\r\n\x1a\n"

@@ -448,6 +448,13 @@ def _round(v, nd=4):
     return None if v is None else round(float(v), nd)
 
 
+def by_time(rows, width):
+    """Rows of a Recording list as an (N, width) float array sorted by their first column
+    (time [s]); the subscribers' threads may append out of order."""
+    a = np.asarray(rows, dtype=np.float64).reshape(-1, width)
+    return a[np.argsort(a[:, 0], kind="stable")]
+
+
 def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=None, finish=None,
                  waypoints=None):
     """The health.json dictionary of a Recording between t_start and t_end (simulated [s]).
@@ -460,8 +467,7 @@ def build_report(rec, t_start, t_end, nodes=None, dock=None, gate=None, summary=
     summary: the cruise node's parsed summary or None. report["laps"]["rule"] says which
     rule counted the laps.
     """
-    truth = np.asarray(rec.truth, dtype=np.float64).reshape(-1, 5)
-    truth = truth[np.argsort(truth[:, 0], kind="stable")]
+    truth = by_time(rec.truth, 5)
     pos_err, head_err = localization_errors(rec.amcl, truth)
     loc = stats(pos_err)
     head = stats(np.degrees(head_err))
@@ -754,3 +760,35 @@ def encode_png(img):
     if not ok:
         raise ValueError("OpenCV could not encode the picture as PNG")
     return buf.tobytes()
+
+
+BATTERY_COLOUR, SPEED_COLOUR = (0, 120, 220), (180, 90, 20)   # BGR
+
+
+def pictures(report, rec, grid, dock, t0, laps_by):
+    """(laps.png, battery_speed.png) as PNG bytes of a build_report report and its Recording.
+
+    grid: the map (GridMap) or None; dock: (x, y, yaw [rad]) or None; t0: the report's start
+    [s] (the plots' zero); laps_by: (gate, finish, waypoints) as build_report had them."""
+    truth = by_time(rec.truth, 5)
+    gate, finish, waypoints = laps_by
+    _, _, bounds = lap_boundaries(truth, rec.goals, rec.results, waypoints, gate, finish)
+    visits_xy = []
+    for v in report["dock"]["visits"]:
+        inside = (truth[:, 0] >= v["t_in_s"] + t0) & (truth[:, 0] <= v["t_out_s"] + t0)
+        if inside.any():
+            visits_xy.append(tuple(truth[inside, 1:3].mean(axis=0)))
+    n = report["laps"]["completed"]
+    title = (f"truth path: {n} lap{'s' * (n != 1)}, {report['motion']['distance_m']:.0f} m"
+             + (f", {len(visits_xy)} dock visit{'s' * (len(visits_xy) != 1)}" if dock is not None else ""))
+    laps_png = encode_png(draw_laps(grid, truth[:, 1:3], bounds, dock, visits_xy, title))
+    bat = by_time(rec.battery, 3)
+    panels = [
+        {"title": "battery", "ylabel": "%", "ylim": (0, 100),
+         "series": [(bat[:, 0] - t0, 100 * bat[:, 1], BATTERY_COLOUR)] if len(bat) else [],
+         "note": None if len(bat) else "no /battery_state"},
+        {"title": "speed (ground truth)", "ylabel": "m/s",
+         "series": [(truth[:, 0] - t0, truth[:, 4], SPEED_COLOUR)] if len(truth) else [],
+         "note": None if len(truth) else "no /base_pose_ground_truth"},
+    ]
+    return laps_png, encode_png(draw_time_series(panels))
