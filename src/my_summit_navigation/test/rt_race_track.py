@@ -93,7 +93,19 @@ class RaceTrack(unittest.TestCase):
                 self.reached.append((target, math.hypot(self.truth.pose[0] - x, self.truth.pose[1] - y)))
 
     def wait_summary(self):
+        """The summary, once every goal seen has its result here too.
+
+        The cruise publishes its summary right after the last goal's result, but on
+        another topic and connection: in CI's run of 2026-11-28 (race_track_battery) the
+        summary reached this test before the last waypoint's SUCCEEDED, and the lap
+        looked one waypoint short (12 of 13).
+        """
         lu.wait_for(lambda: self.summary.msg is not None, "/auto_navigator/summary", WALL_LIMIT)
+
+        def all_final():
+            with self.lock:
+                return all(gid in self.final for gid in self.target_of)
+        lu.wait_for(all_final, "a result for every goal sent", 30.0)
         return json.loads(self.summary.msg.data)
 
     def check_lap(self, summary, dock_visits):
