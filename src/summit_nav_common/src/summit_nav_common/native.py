@@ -1,0 +1,65 @@
+"""The workspace's kernels compiled ahead of time (csrc/, built by catkin), loaded with ctypes.
+
+Why not numba: a process that imports numba carries LLVM, about 60 MB of RSS, for loops
+that are a few dozen lines of C (issue 43: each node at Python's floor plus the real
+node's memory). The C is compiled once at build time into ``libsummit_nav_kernels.so``
+in the workspace's lib folder (devel/lib, or the install space's lib), found through
+``LD_LIBRARY_PATH`` (setup.bash sets it) or ``CMAKE_PREFIX_PATH``; ctypes adds well under
+1 MB. Each kernel has a NumPy/Python reference that stays its test oracle.
+
+``library()`` returns the loaded library with its argument types declared;
+``NativeError`` says which file was looked for where, and that ``make build`` builds it.
+"""
+import ctypes
+import os
+
+import numpy as np
+
+LIB_NAME = "libsummit_nav_kernels.so"
+
+_f64 = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+_i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+_i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
+_u8 = np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS")
+_int64 = ctypes.c_int64
+
+# name: (restype, argtypes), as declared in csrc/*.c
+SIGNATURES = {
+    "snc_grid_csr": (_int64, [_f64, _u8, _i64, _int64, _int64, _i64, _i32, _f64]),
+    "snc_reduced_weights": (None, [_i64, _i32, _f64, _f64, _int64, _f64]),
+    "snc_dijkstra": (ctypes.c_int, [_i64, _i32, _f64, _int64, _int64, ctypes.c_double, _f64]),
+}
+
+
+class NativeError(RuntimeError):
+    """The compiled kernels' library is missing or does not hold a kernel."""
+
+
+def _candidates():
+    dirs = [d for d in os.environ.get("LD_LIBRARY_PATH", "").split(os.pathsep) if d]
+    dirs += [os.path.join(p, "lib") for p in os.environ.get("CMAKE_PREFIX_PATH", "").split(os.pathsep) if p]
+    return [os.path.join(d, LIB_NAME) for d in dirs]
+
+
+_lib = None
+
+
+def library():
+    """The kernels' library, loaded once, with every SIGNATURES entry declared."""
+    global _lib
+    if _lib is None:
+        paths = _candidates()
+        path = next((p for p in paths if os.path.isfile(p)), None)
+        if path is None:
+            raise NativeError(f"{LIB_NAME} not found in LD_LIBRARY_PATH or CMAKE_PREFIX_PATH/lib "
+                              f"(looked in {len(paths)} folders); build the workspace (make build) "
+                              "and source devel/setup.bash")
+        lib = ctypes.CDLL(path)
+        for name, (restype, argtypes) in SIGNATURES.items():
+            try:
+                fn = getattr(lib, name)
+            except AttributeError as e:
+                raise NativeError(f"{path} has no {name}: rebuild the workspace (make build)") from e
+            fn.restype, fn.argtypes = restype, argtypes
+        _lib = lib
+    return _lib
