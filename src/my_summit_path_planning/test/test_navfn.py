@@ -68,6 +68,29 @@ def test_graph_matrix_equals_reference_bit_for_bit(seed):
         if seed >= 2:
             assert len(set(labels)) > 1 and g.matrix.nnz > 0    # several components, edges
 
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_dijkstra_equals_scipys_to_the_bit(seed):
+    """The compiled Dijkstra (csrc/grid_graph.c) that replaced scipy.sparse.csgraph's in
+    the node: the same distances to the bit, with a distance limit and on A*'s reduced
+    weights, whose rounding leaves explicit zero-weight edges (SciPy keeps them as edges)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import dijkstra as sp_dijkstra
+    from my_summit_path_planning.navfn import CSRGraph, _dijkstra
+    rng = np.random.default_rng(seed)
+    g = GridGraph(navfn_costs(random_costs(rng, 50, 43), True))
+    m = g.matrix
+    heur = rng.uniform(0.0, 1e4, g.cells.size)            # not consistent: many zeros after the clip
+    reduced = _reduced_weights(m.indptr, m.indices, m.data, heur)
+    assert np.count_nonzero(reduced == 0.0) > 0
+    for data in (m.data, reduced):
+        ref = sp.csr_matrix((data, m.indices, m.indptr), shape=m.shape)
+        src = int(rng.integers(g.cells.size))
+        full = sp_dijkstra(ref, directed=True, indices=src)
+        for limit in (np.inf, float(np.median(full[np.isfinite(full)])), 0.0):
+            npt.assert_array_equal(_dijkstra(CSRGraph(data, m.indices, m.indptr, m.shape[0]), src, limit),
+                                   sp_dijkstra(ref, directed=True, indices=src, limit=limit))
+
+
 def test_navfn_costs_translation():
     c = np.array([[0, 100, 252, 253, 254, 255]], np.uint8)
     out = navfn_costs(c, allow_unknown=True)

@@ -10,10 +10,10 @@ The algorithm, in the order it runs:
    COST_OBS - 1 when allow_unknown, else are forbidden (navfn's setCostmap).
 2. Potential: Dijkstra from the robot's cell over the grid (navfn_ros seeds the
    propagation at the robot so that default_tolerance can pick any reached cell near
-   the goal). We run SciPy's compiled ``scipy.sparse.csgraph.dijkstra`` on an
-   8-connected grid graph, its CSR matrix written in one compiled pass over the cells
-   (numba; ``grid_graph_matrix_reference`` builds it through SciPy's COO, the test
-   oracle), edge weight = mean of the two cell costs x step length [cells]. (navfn
+   the goal). We run a compiled Dijkstra (C, built ahead of time:
+   summit_nav_common.native, csrc/grid_graph.c) on an 8-connected grid graph, its CSR
+   matrix written in one compiled pass over the cells (``grid_graph_matrix_reference``
+   builds it through SciPy's COO, the test oracle), edge weight = mean of the two cell costs x step length [cells]. (navfn
    itself propagates a 4-connected wavefront with a quadratic interpolation; the
    8-connected graph gives a comparably isotropic potential, and the slow pure-Python
    ``dijkstra_reference`` on the same graph is the test oracle.)
@@ -48,11 +48,9 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import dijkstra as _sp_dijkstra
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from summit_nav_common.jit import njit
+from summit_nav_common.native import library as _native
 
 # navfn.h: navfn cost values are COST_NEUTRAL + COST_FACTOR * costmap cost. Costmap
 # costs 0..252 then spread evenly over 50..251. With a larger factor the costs near
@@ -129,54 +127,54 @@ def navfn_costs(costs, allow_unknown):
     return out
 
 
-# The eight neighbours of a cell in increasing flat index (dy, dx): the order of a CSR row.
-_ROW_ORDER_DY = np.array([-1, -1, -1, 0, 0, 1, 1, 1])
-_ROW_ORDER_DX = np.array([-1, 0, 1, -1, 1, -1, 0, 1])
+class CSRGraph:
+    """A directed graph in compressed sparse rows, as SciPy's csr_matrix holds it:
+    row u's edges are indices[indptr[u]:indptr[u + 1]] (int32 targets) with weights
+    data[...] (float64). Only what the compiled kernels read; no SciPy in the node."""
+
+    def __init__(self, data, indices, indptr, n):
+        self.data, self.indices, self.indptr, self.shape = data, indices, indptr, (n, n)
+
+    @property
+    def nnz(self):
+        return int(self.indptr[-1])
 
 
-@njit(cache=True, nogil=True)
 def _grid_csr(cost, passable, node_of):
-    """(indptr, indices, data) of GridGraph's CSR matrix in one pass over the cells: each
-    passable cell's row lists its passable 8-neighbours in increasing node index, the
-    edge weighing the mean of the two cell costs x the step length [cells]."""
+    """(indptr, indices, data) of GridGraph's CSR matrix in one compiled pass over the
+    cells: each passable cell's row lists its passable 8-neighbours in increasing node
+    index, the edge weighing the mean of the two cell costs x the step length [cells]."""
+    cost = np.ascontiguousarray(cost, dtype=np.float64)
+    ok = np.ascontiguousarray(passable, dtype=np.uint8)
     h, w = cost.shape
-    n = 0
-    for y in range(h):
-        for x in range(w):
-            if passable[y, x]:
-                n += 1
+    n = int(np.count_nonzero(ok))
     indptr = np.zeros(n + 1, dtype=np.int64)
     indices = np.empty(8 * n, dtype=np.int32)
     data = np.empty(8 * n)
-    k, node = 0, 0
-    for y in range(h):
-        for x in range(w):
-            if not passable[y, x]:
-                continue
-            for j in range(8):
-                ny, nx = y + _ROW_ORDER_DY[j], x + _ROW_ORDER_DX[j]
-                if ny < 0 or nx < 0 or ny >= h or nx >= w or not passable[ny, nx]:
-                    continue
-                length = SQRT2 if (_ROW_ORDER_DY[j] != 0 and _ROW_ORDER_DX[j] != 0) else 1.0
-                indices[k] = node_of[ny * w + nx]
-                data[k] = 0.5 * (cost[y, x] + cost[ny, nx]) * length
-                k += 1
-            node += 1
-            indptr[node] = k
+    k = _native().snc_grid_csr(cost, ok, np.ascontiguousarray(node_of, dtype=np.int64), h, w,
+                                indptr, indices, data)
     return indptr, indices[:k], data[:k]
 
 
-@njit(cache=True, nogil=True)
 def _reduced_weights(indptr, indices, data, heur):
-    """A*'s reduced edge weights w + h(v) - h(u) of a CSR matrix in one pass over its
-    rows, clipped at 0 (rounding only: the heuristic is consistent)."""
-    out = np.empty(data.size)
-    for u in range(indptr.size - 1):
-        hu = heur[u]
-        for j in range(indptr[u], indptr[u + 1]):
-            r = (heur[indices[j]] - hu) + data[j]   # the reference's order: equal to the bit
-            out[j] = r if r > 0.0 else 0.0
+    """A*'s reduced edge weights w + h(v) - h(u) of a CSR matrix in one compiled pass over
+    its rows, clipped at 0 (rounding only: the heuristic is consistent)."""
+    indptr = np.ascontiguousarray(indptr, dtype=np.int64)
+    out = np.empty(len(data))
+    _native().snc_reduced_weights(indptr, np.ascontiguousarray(indices, dtype=np.int32),
+                                  np.ascontiguousarray(data, dtype=np.float64),
+                                  np.ascontiguousarray(heur, dtype=np.float64), indptr.size - 1, out)
     return out
+
+
+def _dijkstra(graph, source, limit=np.inf):
+    """Distances (n,) from node `source` over a CSRGraph, +inf where farther than `limit`
+    (scipy.sparse.csgraph.dijkstra(graph, directed=True, indices=source, limit=limit))."""
+    n = graph.shape[0]
+    dist = np.empty(n)
+    if _native().snc_dijkstra(graph.indptr, graph.indices, graph.data, n, int(source), float(limit), dist):
+        raise MemoryError("navfn: no memory for Dijkstra's heap")
+    return dist
 
 
 def reduced_weights_reference(matrix, heur):
@@ -188,6 +186,7 @@ def reduced_weights_reference(matrix, heur):
 
 def grid_graph_matrix_reference(cell_cost):
     """GridGraph's CSR matrix built edge list by edge list through SciPy's COO (test oracle)."""
+    import scipy.sparse as sp   # the oracle's only; the planner itself needs no SciPy
     cost = np.asarray(cell_cost, dtype=np.float64)
     h, w = cost.shape
     passable = np.isfinite(cost)
@@ -215,7 +214,7 @@ def grid_graph_matrix_reference(cell_cost):
 
 
 class GridGraph:
-    """The 8-connected graph of the passable cells of a cost grid, as a SciPy CSR matrix.
+    """The 8-connected graph of the passable cells of a cost grid, as a CSR matrix (CSRGraph).
 
     cell_cost: (H, W) float, inf for forbidden cells. node_of: (H*W,) node index or -1;
     cells: (n,) flat cell index of each node.
@@ -232,7 +231,7 @@ class GridGraph:
         n = self.cells.size
         self.min_cost = float(cost.ravel()[self.cells].min()) if n else COST_NEUTRAL
         indptr, indices, data = _grid_csr(cost, passable, self.node_of)
-        self.matrix = sp.csr_matrix((data, indices, indptr), shape=(n, n))
+        self.matrix = CSRGraph(data, indices, indptr, n)
 
     def component_of(self, cell):
         """8-connected component label of flat cell index cell (-1 if not passable)."""
@@ -245,7 +244,7 @@ class GridGraph:
     def potential_toward(self, source_cell, target_cell, cost_estimate=None, guide=None):
         """Dijkstra potential from source_cell, settled only as far as target_cell needs.
 
-        A* through SciPy: edge weights are reduced by the consistent heuristic
+        A* through the compiled Dijkstra: edge weights are reduced by the consistent heuristic
         h = (cheapest cell cost) x octile distance to the target, w' = w + h(v) - h(u) >= 0,
         and Dijkstra on w' with a distance limit settles exactly the cells v with
         d(s, v) + h(v) <= limit + h(s); their potentials d(s, v) are exact. The limit
@@ -266,12 +265,12 @@ class GridGraph:
             heur = np.maximum(heur, np.asarray(guide, dtype=np.float64).ravel()[self.cells])
         m = self.matrix
         reduced = _reduced_weights(m.indptr, m.indices, m.data, heur)   # w' = w + h(v) - h(u)
-        rm = sp.csr_matrix((reduced, m.indices, m.indptr), shape=m.shape, copy=False)
+        rm = CSRGraph(reduced, m.indices, m.indptr, m.shape[0])
         hs = heur[src]
         est = hs if cost_estimate is None or not math.isfinite(cost_estimate) else max(hs, cost_estimate)
         limit = max(BOUND_MARGIN * est - hs, self.min_cost)
         for _ in range(BOUND_TRIES):
-            d = _sp_dijkstra(rm, directed=True, indices=int(src), limit=limit)
+            d = _dijkstra(rm, src, limit)
             if np.isfinite(d[tgt]):
                 pot = np.full(h * w, POT_HIGH)
                 reached = np.isfinite(d)
@@ -287,7 +286,7 @@ class GridGraph:
         src = self.node_of[source_cell]
         if src < 0:
             return pot.reshape(self.shape)
-        d = _sp_dijkstra(self.matrix, directed=True, indices=int(src), limit=limit)
+        d = _dijkstra(self.matrix, src, limit)
         reached = np.isfinite(d)
         pot[self.cells[reached]] = d[reached]
         return pot.reshape(self.shape)
