@@ -1,0 +1,137 @@
+"""The filter's cycle as robot_localization's ekf_localization_node runs it (no rospy).
+
+Messages arrive as lists of ekf.Measurement per topic (ekf_sensors); each periodic
+update (`frequency` [Hz]) fuses the queued measurements whose stamps are not later than
+now, in stamp order (predict to each, then correct); with none for `sensor_timeout` [s]
+it predicts to now. What the node must say is returned as text, never raised:
+  - a message with NaN or inf in a value it fuses, or in that value's variance, is
+    dropped whole (the filter never sees it, so never outputs NaN);
+  - a message stamped before the previous one on its topic is dropped (robot_localization
+    does the same when it does not smooth lagged data);
+  - a message stamped more than FUTURE_LIMIT ahead of now is dropped; one a little ahead
+    waits in the queue until its time;
+  - a rejected measurement (Mahalanobis threshold) is counted per topic;
+  - a configured topic that has not published for `silent_after` [s] since the start is
+    named once (the filter runs on the others).
+"""
+import heapq
+import itertools
+import math
+
+import numpy as np
+
+from .ekf import MIN_VARIANCE, STATE_NAMES, Ekf, Measurement
+
+FUTURE_LIMIT = 1.0     # [s] a stamp this far ahead of now is taken for a wrong clock and dropped
+SILENT_AFTER = 5.0     # [s] a topic without a message this long after the start is warned about
+
+
+class EkfRunner:
+    """Owns the Ekf, the measurement queue and the per-topic bookkeeping.
+
+    config: ekf_config.EkfConfig; topics: the configured topics (for the silence check)."""
+
+    def __init__(self, config, topics=(), silent_after=SILENT_AFTER):
+        self.config = config
+        self.ekf = Ekf(config.process_noise_covariance, config.initial_estimate_covariance, config.two_d_mode)
+        self.queue = []                  # heap of (stamp, seq, Measurement)
+        self._seq = itertools.count()
+        self.last_stamp = {t: None for t in topics}   # topic -> stamp [s] of its latest accepted message
+        self.counts = {t: {"received": 0, "fused": 0, "rejected": 0, "dropped": 0} for t in topics}
+        self.silent_after = silent_after
+        self.start = None                # [s] time of the first update
+        self.warned_silent = set()
+        self.last_update = None          # [s] ROS time the filter last moved (measurement or timeout)
+
+    def _count(self, topic, key):
+        self.counts.setdefault(topic, {"received": 0, "fused": 0, "rejected": 0, "dropped": 0})[key] += 1
+
+    def add(self, topic, stamp, measurements, now):
+        """Queues one message's measurements (stamp [s], now: the ROS time [s]); returns
+        None, or the reason the whole message was dropped."""
+        self._count(topic, "received")
+        why = None
+        if not math.isfinite(stamp):
+            why = "its stamp is not a number"
+        elif stamp > now + FUTURE_LIMIT:
+            why = f"its stamp is {stamp - now:.3f} s in the future (more than {FUTURE_LIMIT:g} s)"
+        elif self.last_stamp.get(topic) is not None and stamp < self.last_stamp[topic]:
+            why = (f"its stamp {stamp:.3f} is before the previous message's {self.last_stamp[topic]:.3f} "
+                   "(out of order)")
+        else:
+            for m in measurements:
+                bad = not_finite(m)
+                if bad:
+                    why = f"{bad} is NaN or infinite"
+                    break
+        if why is not None:
+            self._count(topic, "dropped")
+            return why
+        self.last_stamp[topic] = stamp
+        for m in measurements:
+            heapq.heappush(self.queue, (m.stamp, next(self._seq), m))
+        return None
+
+    def update(self, now):
+        """Fuses the queued measurements stamped up to now [s]; predicts to now when none
+        came for sensor_timeout. Returns the Outcomes of the rejected measurements as
+        (topic, outcome) pairs."""
+        if self.start is None:
+            self.start = now
+        rejected = []
+        fused_any = False
+        while self.queue and self.queue[0][0] <= now:
+            _, _, m = heapq.heappop(self.queue)
+            outcome = self.ekf.process(m)
+            fused_any = True
+            if outcome.accepted:
+                self._count(m.source, "fused")
+            else:
+                self._count(m.source, "rejected")
+                rejected.append((m.source, outcome))
+        if fused_any:
+            self.last_update = now
+        elif self.ekf.initialized and self.last_update is not None \
+                and now - self.last_update >= self.config.sensor_timeout:
+            self.ekf.predict_to(now)
+            self.last_update = now
+        return rejected
+
+    def silent_topics(self, now):
+        """Configured topics with no message for silent_after [s] since the start that have
+        not been named yet (each is returned once)."""
+        if self.start is None or now - self.start < self.silent_after:
+            return []
+        out = [t for t, s in self.last_stamp.items()
+               if s is None and self.counts[t]["received"] == 0 and t not in self.warned_silent]
+        self.warned_silent.update(out)
+        return out
+
+    def set_pose(self, stamp, pose6, pose_cov6, sensors=()):
+        """robot_localization's set_pose: the state becomes the pose (x, y, z, roll, pitch,
+        yaw) with its 6x6 covariance, velocities and accelerations zero with the
+        initial_estimate_covariance; queued measurements and the sensors' differential /
+        relative references are dropped."""
+        x = np.zeros(15)
+        x[:6] = pose6
+        p = self.config.initial_estimate_covariance.copy()
+        p[:6, :] = 0.0
+        p[:, :6] = 0.0
+        p[:6, :6] = np.asarray(pose_cov6, dtype=np.float64).reshape(6, 6)
+        np.fill_diagonal(p, np.maximum(np.abs(np.diagonal(p)), MIN_VARIANCE))
+        self.ekf.reset(x, p, stamp)
+        self.queue.clear()
+        for s in sensors:
+            s.reset()
+        self.last_update = stamp
+
+
+def not_finite(m: Measurement):
+    """The first masked value of m (or its variance) that is not finite, as text; None
+    when all are."""
+    for i in np.flatnonzero(m.mask):
+        if not math.isfinite(m.z[i]):
+            return f"{STATE_NAMES[i]}"
+        if not np.all(np.isfinite(m.cov[i, m.mask])):
+            return f"the covariance of {STATE_NAMES[i]}"
+    return None
