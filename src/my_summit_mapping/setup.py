@@ -3,5 +3,5 @@ from setuptools import setup
 
 from catkin_pkg.python_setup import generate_distutils_setup
 
-d = generate_distutils_setup(packages=['my_summit_mapping'], package_dir={'': 'src'})
+d = generate_distutils_setup(packages=['my_summit_mapping', 'my_summit_mapping.karto'], package_dir={'': 'src'})
 setup(**d)
