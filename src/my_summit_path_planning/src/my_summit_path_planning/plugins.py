@@ -16,19 +16,19 @@ Registered here:
                        and ours:
                        my_summit_path_planning/BackUpRecovery, .../TurnAroundRecovery
 A registration is one line: ``REGISTRY.register(type, factory(params, ctx, where))``.
+The planners move_base's default configuration does not pick (global_planner,
+carrot_planner, base_local_planner) are imported by their factory, when chosen: their
+compiled kernels (numba) are then loaded only by a move_base that uses them.
 """
 import inspect
 
 from . import recovery
-from .carrot_planner import CarrotPlanner
 from .dwa import DWAPlanner
-from .global_planner import GlobalPlanner
 from .nav_core import PluginContext, PluginError, Registry, namespace_of, read_limits
 from .navfn import NavFn
 from summit_nav_common.params import unread_note
 
 from .params import dwa_config, navfn_config
-from .trajectory_planner import TrajectoryPlanner
 
 GLOBAL_PLANNERS = Registry("base_global_planner")
 LOCAL_PLANNERS = Registry("base_local_planner")
@@ -65,11 +65,19 @@ def _navfn(params, ctx, where):
     return planner
 
 
+def _global_planner(params, ctx, where):
+    from .global_planner import GlobalPlanner   # numba: loaded only when chosen
+    return GlobalPlanner.from_params(params, where)
+
+
+def _carrot_planner(params, ctx, where):
+    from .carrot_planner import CarrotPlanner
+    return CarrotPlanner.from_params(params, ctx.footprint, where)
+
+
 GLOBAL_PLANNERS.register("navfn/NavfnROS", _navfn)
-GLOBAL_PLANNERS.register("global_planner/GlobalPlanner",
-                         lambda params, ctx, where: GlobalPlanner.from_params(params, where))
-GLOBAL_PLANNERS.register("carrot_planner/CarrotPlanner",
-                         lambda params, ctx, where: CarrotPlanner.from_params(params, ctx.footprint, where))
+GLOBAL_PLANNERS.register("global_planner/GlobalPlanner", _global_planner)
+GLOBAL_PLANNERS.register("carrot_planner/CarrotPlanner", _carrot_planner)
 
 def _dwa_planner(params, ctx, where):
     """DWAPlanner from its namespace; .warnings names what dwa_local_planner does that it
@@ -88,9 +96,12 @@ def _dwa_planner(params, ctx, where):
 
 
 LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS", _dwa_planner, limits=dwa_limits)
-LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS",
-                        lambda params, ctx, where: TrajectoryPlanner.from_params(
-                            params, ctx.footprint, where, controller_frequency=ctx.controller_frequency),
+def _trajectory_planner(params, ctx, where):
+    from .trajectory_planner import TrajectoryPlanner   # numba: loaded only when chosen
+    return TrajectoryPlanner.from_params(params, ctx.footprint, where, controller_frequency=ctx.controller_frequency)
+
+
+LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS", _trajectory_planner,
                         limits=trajectory_planner_limits)
 
 

@@ -33,10 +33,8 @@ import rospy
 from dynamic_reconfigure.msg import Config, DoubleParameter
 from dynamic_reconfigure.srv import Reconfigure
 
-from my_summit_path_planning.global_planner import GlobalPlanner
 from my_summit_path_planning.layers import InflationLayer
 from my_summit_path_planning.params import ParamError, dwa_config
-from my_summit_path_planning.trajectory_planner import trajectory_planner_config
 from summit_nav_common.ros.reconfigure import StrictServer
 
 
@@ -117,6 +115,7 @@ class TrajectoryReconfigure(_Callback):
         self.startup = self.current()
 
     def _config(self, params):
+        from my_summit_path_planning.trajectory_planner import trajectory_planner_config   # only when chosen
         cfg, _warnings, _ignored = trajectory_planner_config(
             params, self.node.plugins.local_name, self.node.plugins.ctx.controller_frequency)
         return cfg
@@ -160,6 +159,7 @@ class GlobalPlannerReconfigure(_Callback):
 
     def apply(self, changes):
         params = dict(self.node.plugins.global_params, **changes)
+        from my_summit_path_planning.global_planner import GlobalPlanner   # only when chosen
         new = GlobalPlanner.from_params(params, self.node.plugins.global_name).config   # ParamError if unusable
         with self.node.lock:
             self.node.plugins.global_params = params
