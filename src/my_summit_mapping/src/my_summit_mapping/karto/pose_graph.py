@@ -1,0 +1,138 @@
+"""SE(2) pose graph: scans as nodes, odometry / scan-match / loop constraints as edges.
+
+Reference: Lu & Milios 1997, "Globally consistent range scan alignment for environment
+mapping" (the graph formulation); Konolige et al. 2010, "Efficient Sparse Pose Adjustment
+for 2D Mapping" (SPA, open_karto's solver): an edge (i, j) holds the measured pose of node
+j in node i's frame and its 3x3 information matrix (the inverse covariance of the match
+that produced it).
+
+A node keeps its scan (ranges as received), the hit points in the base frame used for
+matching, its odometry pose and its corrected (optimized) pose in the map frame.
+"""
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Set
+
+import numpy as np
+
+EDGE_KINDS = ("odometry", "sequential", "loop")
+
+
+def wrap(angle):
+    """Angle(s) wrapped to [-pi, pi) [rad]."""
+    return (np.asarray(angle) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def compose(a, b) -> np.ndarray:
+    """SE(2) product a * b of poses (3,) [m, m, rad]."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return np.array([a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], float(wrap(a[2] + b[2]))])
+
+
+def inverse(a) -> np.ndarray:
+    """SE(2) inverse of pose a (3,)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return np.array([-c * a[0] - s * a[1], s * a[0] - c * a[1], float(wrap(-a[2]))])
+
+
+def between(a, b) -> np.ndarray:
+    """Pose of b in a's frame: inverse(a) * b."""
+    return compose(inverse(a), b)
+
+
+def transform_points(pose, points: np.ndarray) -> np.ndarray:
+    """Points (n, 2) of the frame at pose (3,) in the parent frame."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    p = np.asarray(points, float).reshape(-1, 2)
+    return np.column_stack((pose[0] + c * p[:, 0] - s * p[:, 1], pose[1] + s * p[:, 0] + c * p[:, 1]))
+
+
+@dataclass
+class Node:
+    id: int
+    stamp: float               # scan time [s]
+    odom_pose: np.ndarray      # (3,) base pose in the odometry frame [m, m, rad]
+    pose: np.ndarray           # (3,) corrected base pose in the map frame [m, m, rad]
+    ranges: np.ndarray         # (n,) float32 ranges as received [m]
+    points: np.ndarray         # (k, 2) hit points used for matching, base frame [m]
+    barycenter: np.ndarray     # (2,) mean of points, base frame [m] (the node's own position if none)
+
+    def points_in_map(self) -> np.ndarray:
+        return transform_points(self.pose, self.points)
+
+    def position(self, use_barycenter: bool) -> np.ndarray:
+        """Where the node is for distance tests: its scan's barycenter or its base [m]."""
+        if use_barycenter:
+            return transform_points(self.pose, self.barycenter[None, :])[0]
+        return self.pose[:2].copy()
+
+
+@dataclass
+class Edge:
+    i: int                     # from node
+    j: int                     # to node
+    kind: str                  # one of EDGE_KINDS
+    measurement: np.ndarray    # (3,) pose of j in i's frame [m, m, rad]
+    information: np.ndarray    # (3, 3) inverse covariance [1/m^2, 1/rad^2]
+
+
+@dataclass
+class PoseGraph:
+    nodes: List[Node] = field(default_factory=list)
+    edges: List[Edge] = field(default_factory=list)
+    _adjacent: Dict[int, Set[int]] = field(default_factory=dict)
+
+    def add_node(self, node: Node) -> int:
+        if node.id != len(self.nodes):
+            raise ValueError(f"node ids are consecutive: expected {len(self.nodes)}, got {node.id}")
+        self.nodes.append(node)
+        self._adjacent[node.id] = set()
+        return node.id
+
+    def add_edge(self, i: int, j: int, kind: str, measurement, covariance=None, information=None) -> Edge:
+        """Add a constraint: node j seen from node i at `measurement`, with either its
+        covariance or its information matrix (3, 3)."""
+        if kind not in EDGE_KINDS:
+            raise ValueError(f"edge kind must be one of {EDGE_KINDS}, got {kind!r}")
+        if not (0 <= i < len(self.nodes) and 0 <= j < len(self.nodes)) or i == j:
+            raise ValueError(f"edge ({i}, {j}) needs two different existing nodes")
+        if information is None:
+            information = information_of(covariance)
+        edge = Edge(i, j, kind, np.asarray(measurement, float), np.asarray(information, float))
+        self.edges.append(edge)
+        self._adjacent[i].add(j)
+        self._adjacent[j].add(i)
+        return edge
+
+    def remove_edge(self, edge: Edge) -> None:
+        self.edges.remove(edge)
+        if not any({e.i, e.j} == {edge.i, edge.j} for e in self.edges):
+            self._adjacent[edge.i].discard(edge.j)
+            self._adjacent[edge.j].discard(edge.i)
+
+    def neighbours(self, i: int) -> Set[int]:
+        return self._adjacent[i]
+
+    def poses(self) -> np.ndarray:
+        return np.array([n.pose for n in self.nodes]).reshape(-1, 3)
+
+    def set_poses(self, poses: np.ndarray) -> None:
+        for node, p in zip(self.nodes, poses):
+            node.pose = np.array([p[0], p[1], float(wrap(p[2]))])
+
+    def edge_arrays(self):
+        """(i (E,), j (E,), measurements (E, 3), information (E, 3, 3)) for the optimizer."""
+        if not self.edges:
+            return (np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros((0, 3, 3)))
+        return (np.array([e.i for e in self.edges]), np.array([e.j for e in self.edges]),
+                np.array([e.measurement for e in self.edges]), np.array([e.information for e in self.edges]))
+
+
+def information_of(covariance) -> np.ndarray:
+    """Inverse of a 3x3 covariance, symmetrized (a singular one raises ValueError)."""
+    cov = np.asarray(covariance, float)
+    try:
+        info = np.linalg.inv(cov)
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(f"edge covariance is singular: {cov.tolist()}") from exc
+    return 0.5 * (info + info.T)
