@@ -21,6 +21,11 @@ beside each time. Sections:
               BAG_RATE), seeds 1-5: online aligned ATE, CPU per filter update, peak RSS
   slam_bag_peer (only with --only slam_bag_peer --gmapping EXE [--gmapping-setup SETUP]) the
               same on another slam_gmapping executable, e.g. the real gmapping as the oracle
+  slam_bag_karto  slam_karto (ROS node, graph SLAM, its defaults with the same frames and
+              resolution) on slam_bag's bags, seeds and scoring: online and final-trajectory
+              ATE, CPU per scan added to the graph, peak RSS
+  slam_bag_karto_peer (only with --only slam_bag_karto_peer --karto EXE [--karto-setup SETUP])
+              the same on another slam_karto executable, e.g. the real slam_karto as the oracle
   slam_replay_peer (only with --only slam_replay_peer --gmapping-replay EXE [--gmapping-replay-setup
               SETUP]) the real gmapping's filter seeded (its slam_gmapping_replay) and ours on
               slam_bag's bags, seeds 1-10 each (bench_slam_replay.py): the spread over seeds
@@ -253,13 +258,14 @@ BAG_SEEDS = (1, 2, 3, 4, 5)   # median and worst of 5 (the real gmapping's refer
 CARMEN_LOGS = {"intel": "intel-corrected.log.gz", "aces": "aces-corrected.log.gz"}
 
 
-def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS, node=None, node_setup=None):
-    """bench_slam_bag.py on each of `logs` (names, default intel and aces); node: another
-    slam_gmapping-compatible executable run instead of ours (node_setup: the bash file its
-    environment needs), for the slam_bag_peer section."""
-    res = {"rate": rate, "logs": {}, "node": node}
-    tag = "_peer" if node else ""
+def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS, node=None, node_setup=None, slam="gmapping"):
+    """bench_slam_bag.py on each of `logs` (names, default intel and aces); slam: the node
+    under test (gmapping or karto); node: another executable with its interface run instead
+    of ours (node_setup: the bash file its environment needs), for the *_peer sections."""
+    res = {"rate": rate, "logs": {}, "node": node, "slam": slam}
+    tag = ("_karto" if slam == "karto" else "") + ("_peer" if node else "")
     extra = (["--node", node] + (["--node-setup", node_setup] if node_setup else [])) if node else []
+    extra += ["--slam", slam]
     for name in logs or list(CARMEN_LOGS):
         res["logs"][name] = _run_script(
             "my_summit_mapping", "bench_slam_bag.py",
@@ -475,6 +481,7 @@ def bench_e2e():
 # The sections that run another executable (the real node) in ours' place: section ->
 # (its option, whose --OPTION-setup goes with it; what the executable is).
 PEER_SECTIONS = {"slam_bag_peer": ("gmapping", "the real gmapping's slam_gmapping"),
+                 "slam_bag_karto_peer": ("karto", "the real slam_karto (build_karto.sh)"),
                  "slam_replay_peer": ("gmapping-replay", "the real gmapping's slam_gmapping_replay"),
                  "planning_peer": ("move-base", "the real move_base")}
 
@@ -491,6 +498,10 @@ def main():
                     help="slam_bag_peer: the other slam_gmapping executable (e.g. the real gmapping's)")
     ap.add_argument("--gmapping-setup", metavar="SETUP_BASH",
                     help="slam_bag_peer: a setup.bash the other executable's environment needs")
+    ap.add_argument("--karto", metavar="EXECUTABLE",
+                    help="slam_bag_karto_peer: the other slam_karto executable (e.g. the real slam_karto's)")
+    ap.add_argument("--karto-setup", metavar="SETUP_BASH",
+                    help="slam_bag_karto_peer: a setup.bash the other executable's environment needs")
     ap.add_argument("--gmapping-replay", metavar="EXECUTABLE",
                     help="slam_replay_peer: the real gmapping's seeded player slam_gmapping_replay")
     ap.add_argument("--gmapping-replay-setup", metavar="SETUP_BASH",
@@ -513,7 +524,7 @@ def main():
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once(profile=args.profile)))
         return 0
-    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_sim", "amcl", "planning", "stack_cpu", "explore", "patrol",
+    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_bag_karto", "slam_sim", "amcl", "planning", "stack_cpu", "explore", "patrol",
                          "race_track", "multi_robot"]
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
@@ -535,6 +546,10 @@ def main():
         "slam_bag": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate),
         "slam_bag_peer": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate, node=os.path.abspath(args.gmapping),
                                                 node_setup=args.gmapping_setup and os.path.abspath(args.gmapping_setup)),
+        "slam_bag_karto": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate, slam="karto"),
+        "slam_bag_karto_peer": lambda: bench_slam_bag(args.carmen_logs, args.bag_rate, node=os.path.abspath(args.karto),
+                                                      node_setup=args.karto_setup and os.path.abspath(args.karto_setup),
+                                                      slam="karto"),
         "slam_replay_peer": lambda: bench_slam_replay(os.path.abspath(args.gmapping_replay),
                                                       args.gmapping_replay_setup
                                                       and os.path.abspath(args.gmapping_replay_setup),

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Benchmark the live slam_gmapping node on a CARMEN log played from a rosbag.
+"""Benchmark the live slam_gmapping (or slam_karto) node on a CARMEN log played from a rosbag.
 
 As the real gmapping node is evaluated on these logs: the log becomes a bag
 (carmen_to_bag.py: /scan, odom -> base_link with seeded drift, base_link -> base_laser,
@@ -21,6 +21,16 @@ from /tf, the last /map. Reported per seed:
 With several seeds (each: drift seed + ODOM_SEED_OFFSET, filter seed) the median and worst
 are reported.
 
+--slam karto runs slam_karto (nodes/slam_karto) on the same bags and scoring, as the real
+slam_karto node is run beside the real gmapping: its own defaults with the same frames and
+resolution (resolution 0.05, base_frame base_link, odom_frame odom). Its updates are the
+scans added to the pose graph (the gate: open_karto's minimum_travel_distance 0.2 m /
+minimum_travel_heading 0.174 rad); for ours they are read from the graph it serializes at
+the end (~serialize_map), which also gives the final trajectory: the graph's node poses
+after its last optimization, scored against the corrected poses of their scans
+(ate_final_m) beside the online ATE. For another slam_karto executable (--node, e.g. the
+real one) updates are counted from the map -> odom broadcasts and the final ATE is n/a.
+
 --node EXECUTABLE runs another slam_gmapping-compatible executable in place of ours (e.g. the
 real gmapping's, as an oracle on the same bags and scoring), with the same parameters; it
 is started directly (its pid is the one /proc is read for) as node `slam_gmapping`, in the
@@ -36,12 +46,13 @@ Every process started here is stopped, also on failure; a node crash, bad input 
 timeout ends with a message and a non-zero exit status.
 
 Usage: bench_slam_bag.py LOG [--seeds 1 2 3] [--rate 0.5] [--json PATH] [--out DIR]
-                             [--set name=value ...] [--duration S]
+                             [--set name=value ...] [--duration S] [--slam gmapping|karto]
                              [--node EXECUTABLE [--node-setup SETUP_BASH]]
   LOG: a CARMEN log (.log / .log.gz) or a bag written by carmen_to_bag.py.
   e.g. bench_slam_bag.py data/carmen/intel-corrected.log.gz --seeds 1 2 --rate 4
        bench_slam_bag.py data/carmen/aces-corrected.log.gz --rate 4 --out output/slam_bag_real \
            --node /tmp/peers_ws/devel/lib/gmapping/slam_gmapping --node-setup /tmp/peers_ws/devel/setup.bash
+       bench_slam_bag.py data/carmen/intel-corrected.log.gz --slam karto --seeds 1 2 3 4 5 --rate 4
 """
 import argparse
 import json
@@ -70,6 +81,13 @@ NODE = os.path.join(HERE, "..", "nodes", "slam_gmapping")
 NODE_NAME = "slam_gmapping"
 EVAL_PARAMS = dict(particles=30, delta=0.05, linearUpdate=0.2, angularUpdate=0.1,
                    base_frame="base_link", odom_frame="odom")
+# --slam karto: slam_karto's defaults but for the frames and resolution (as the real one is run)
+KARTO_NODE = os.path.join(HERE, "..", "nodes", "slam_karto")
+KARTO_NAME = "slam_karto"
+KARTO_EVAL_PARAMS = dict(resolution=0.05, base_frame="base_link", odom_frame="odom")
+KARTO_GATE = (0.2, 0.174)   # open_karto's minimum_travel_distance [m] / _heading [rad] defaults
+SLAMS = {"gmapping": (NODE, NODE_NAME), "karto": (KARTO_NODE, KARTO_NAME)}
+SERIALIZE_TIMEOUT = 120.0   # [s wall] for ~serialize_map at the end of a karto run
 MAX_URANGE_CAP = 50.0   # [m] maxUrange at most this (the evaluation's setting)
 RANGE_MARGIN = 0.01     # [m] maxUrange = no-return - this, maxRange = no-return + this
 MAP_MARGIN = 5.0        # [m] around the reference trajectory for xmin..ymax
@@ -94,8 +112,10 @@ def peak_rss_mb(pid):
 
 
 # ----------------------------------------------------------------- parameters
-def node_params(scans, overrides=None):
-    """slam_gmapping's parameters for these scans (module docstring), then overrides."""
+def node_params(scans, overrides=None, slam="gmapping"):
+    """The node's parameters for these scans (module docstring), then overrides."""
+    if slam == "karto":
+        return dict(KARTO_EVAL_PARAMS, **(overrides or {}))
     no_return = float(scans.range_max)
     ref = scans.reference
     lo, hi = ref[:, :2].min(axis=0) - MAP_MARGIN, ref[:, :2].max(axis=0) + MAP_MARGIN
@@ -123,10 +143,31 @@ def parse_set(items):
 
 
 # ----------------------------------------------------------------- the node under test
-def node_command(node=None):
-    """Command line of the node under test: ours (nodes/slam_gmapping, run by this Python)
-    or `node`, another slam_gmapping-compatible executable, run directly."""
-    return ([sys.executable, NODE] if node is None else [node]) + [f"__name:={NODE_NAME}"]
+def node_command(node=None, slam="gmapping"):
+    """Command line of the node under test: ours (nodes/slam_gmapping or nodes/slam_karto,
+    run by this Python) or `node`, another executable with that node's interface, run directly."""
+    path, name = SLAMS[slam]
+    return ([sys.executable, path] if node is None else [node]) + [f"__name:={name}"]
+
+
+def final_graph(service, path, scans):
+    """The pose graph a slam_karto node saves through `service` (~serialize_map) to
+    path.posegraph at the end of a run: (node poses (N, 3) after its last optimization, the
+    index of each node's scan in `scans`, matched by odometry pose)."""
+    import rospy
+    from my_summit_mapping.karto.mapper import KartoMapper
+    from my_summit_mapping.srv import SerializePoseGraph
+    rospy.wait_for_service(service, timeout=SERIALIZE_TIMEOUT)
+    rospy.ServiceProxy(service, SerializePoseGraph)(filename=path)
+    graph = KartoMapper.load(path + ".posegraph")
+    poses = np.asarray(graph.node_poses(), float).reshape(-1, 3)
+    odom = np.asarray(graph.node_odometry(), float).reshape(-1, 3)
+    # each node's odometry pose is its scan's (the bag's float64 tf): the nearest scan's
+    d = np.linalg.norm(odom[:, None, :2] - scans.odometry[None, :, :2], axis=2)
+    index = d.argmin(axis=1)
+    if np.any(d[np.arange(len(index)), index] > 1e-6):
+        raise RuntimeError(f"{path}.posegraph: a node's odometry pose matches no scan of the bag")
+    return poses, index
 
 
 GMAPPING_UPDATE = re.compile(r"update frame \d+")  # GridSlamProcessor::processScan, once per update
@@ -180,14 +221,16 @@ class Recorder:
             self.references += 1
 
 
-def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None):
-    """Play `bag` through slam_gmapping (ours, or node_cmd in the environment node_setup
-    leaves) once; returns the result dict (see module docstring)."""
+def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None, slam="gmapping"):
+    """Play `bag` through slam_gmapping or slam_karto (ours, or node_cmd in the environment
+    node_setup leaves) once; returns the result dict (see module docstring)."""
     from roslaunch_session import Roscore, stop_process_tree
     from my_summit_mapping import carmen_bag, online_eval
 
+    node_name = SLAMS[slam][1]
     scans = carmen_bag.read_bag(bag)
-    params = node_params(scans, overrides)
+    params = node_params(scans, overrides, slam)
+    graph = None
     logs = {k: os.path.join(out_dir, f"slam_bag_seed{seed}_{k}.log") for k in ("roscore", "node", "play")}
     roscore = Roscore(log=logs["roscore"], timeout=START_TIMEOUT, caller="/bench_slam_bag")
     env = roscore.env
@@ -207,11 +250,12 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
         master = roscore.master
         master.setParam("/use_sim_time", True)
         for k, v in params.items():
-            master.setParam(f"/{NODE_NAME}/{k}", v)
-        master.setParam(f"/{NODE_NAME}/seed", int(seed))
-        node = start("node", node_command(node_cmd),
+            master.setParam(f"/{node_name}/{k}", v)
+        if slam == "gmapping":
+            master.setParam(f"/{node_name}/seed", int(seed))
+        node = start("node", node_command(node_cmd, slam),
                      sourced_env(node_setup, env) if node_setup else None)
-        alive = [roscore, Watched.process(NODE_NAME, node, logs["node"])]
+        alive = [roscore, Watched.process(node_name, node, logs["node"])]
         rospy.init_node("bench_slam_bag", anonymous=True, disable_signals=True)
         rec = Recorder()
         from rosgraph_msgs.msg import Clock
@@ -219,8 +263,8 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
 
         def node_subscribed():
             subs = dict((t, n) for t, n in master.getSystemState()[1])
-            return f"/{NODE_NAME}" in subs.get(carmen_bag.SCAN_TOPIC, [])
-        wait_for(node_subscribed, START_TIMEOUT, f"{NODE_NAME} to subscribe to {carmen_bag.SCAN_TOPIC}", alive)
+            return f"/{node_name}" in subs.get(carmen_bag.SCAN_TOPIC, [])
+        wait_for(node_subscribed, START_TIMEOUT, f"{node_name} to subscribe to {carmen_bag.SCAN_TOPIC}", alive)
         cpu0 = cpu_seconds(node.pid)
         duration = float(scans.stamps[-1] - scans.stamps[0])
         wall0 = time.monotonic()
@@ -252,6 +296,8 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
         with rec.lock:
             m2o = np.array(rec.m2o, float).reshape(-1, 4)
             map_msg, maps, refs = rec.map_msg, rec.maps, rec.references
+        if slam == "karto" and node_cmd is None:   # after the CPU figure: saving is not mapping
+            graph = final_graph(f"/{node_name}/serialize_map", os.path.join(out_dir, f"slam_bag_seed{seed}"), scans)
     finally:
         for p in reversed(procs):
             stop_process_tree(p, grace=10.0)
@@ -263,21 +309,31 @@ def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None
             pass
     m2o = m2o[np.argsort(m2o[:, 0], kind="stable")]
     ate, traj = online_eval.online_ate(scans.stamps, scans.odometry, scans.reference, m2o[:, 0], m2o[:, 1:])
-    if node_cmd is None:
-        updates = online_eval.count_updates(m2o[:, 1:]) if maps else 0
+    ate_final = None
+    if slam == "karto":
+        if graph is not None:
+            updates = len(graph[0])
+            ate_final = float(online_eval.metrics.ate_rmse(graph[0], scans.reference[graph[1]]))
+        else:
+            updates = online_eval.count_updates(m2o[:, 1:]) if maps else 0
+        expected = online_eval.expected_updates(scans.odometry, *KARTO_GATE)
     else:
-        updates = node_log_updates(logs["node"])
-    expected = online_eval.expected_updates(scans.odometry, params["linearUpdate"], params["angularUpdate"])
+        if node_cmd is None:
+            updates = online_eval.count_updates(m2o[:, 1:]) if maps else 0
+        else:
+            updates = node_log_updates(logs["node"])
+        expected = online_eval.expected_updates(scans.odometry, params["linearUpdate"], params["angularUpdate"])
     result = dict(
-        bag=bag, node=node_cmd or NODE, seed=seed, rate=rate, scans=len(scans.stamps), log_s=duration,
-        play_wall_s=play_wall,
-        ate_online_m=ate, ate_odom_m=float(online_eval.metrics.ate_rmse(scans.odometry, scans.reference)),
+        bag=bag, node=node_cmd or SLAMS[slam][0], slam=slam, seed=seed, rate=rate, scans=len(scans.stamps),
+        log_s=duration, play_wall_s=play_wall,
+        ate_online_m=ate, ate_final_m=ate_final,
+        ate_odom_m=float(online_eval.metrics.ate_rmse(scans.odometry, scans.reference)),
         cpu_s=cpu, updates=updates, expected_updates=expected,
         cpu_ms_per_update=1000.0 * cpu / updates if updates else None,
         peak_rss_mb=rss, maps_received=maps, reference_poses_received=refs, map_to_odom_broadcasts=len(m2o),
         params=params, logs=logs)
     if map_msg is None:
-        raise RuntimeError(f"{NODE_NAME} published no map; last lines of {logs['node']}:\n{tail(logs['node'])}")
+        raise RuntimeError(f"{node_name} published no map; last lines of {logs['node']}:\n{tail(logs['node'])}")
     series = os.path.join(out_dir, f"slam_bag_seed{seed}.npz")
     np.savez_compressed(series, scan_stamps=scans.stamps, odometry=scans.odometry, reference=scans.reference,
                         online=traj, map_to_odom=m2o)
@@ -298,10 +354,10 @@ def summarize(results):
     keys_high_bad = ("ate_online_m", "ate_odom_m", "cpu_s", "peak_rss_mb")
     med = {k: statistics.median(r[k] for r in results) for k in keys_high_bad}
     worst = {k: max(r[k] for r in results) for k in keys_high_bad}
-    for k in ("cpu_ms_per_update", "updates"):   # None: not known (another node's)
-        known = [r[k] for r in results if r[k] is not None]
+    for k in ("cpu_ms_per_update", "updates", "ate_final_m"):   # None: not known (another node's)
+        known = [r.get(k) for r in results if r.get(k) is not None]
         med[k] = statistics.median(known) if known else None
-        worst[k] = (max if k == "cpu_ms_per_update" else min)(known) if known else None
+        worst[k] = (min if k == "updates" else max)(known) if known else None
     med["expected_updates"] = statistics.median(r["expected_updates"] for r in results)
     return med, worst
 
@@ -348,8 +404,11 @@ def main(argv=None):
     parser.add_argument("--json", help="write the results as JSON to this path")
     parser.add_argument("--out", help="directory for the map PNGs and the logs (default output/slam_bag)")
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="override a node parameter")
+    parser.add_argument("--slam", choices=sorted(SLAMS), default="gmapping",
+                        help="the node under test: slam_gmapping (default) or slam_karto")
     parser.add_argument("--node", metavar="EXECUTABLE",
-                        help="run this slam_gmapping-compatible executable (e.g. the real gmapping's) instead of ours")
+                        help="run this executable with --slam's interface (e.g. the real gmapping's or slam_karto's) "
+                             "instead of ours")
     parser.add_argument("--node-setup", metavar="SETUP_BASH",
                         help="source this file (e.g. a catkin devel/setup.bash) for --node's environment")
     parser.add_argument("--child-seed", type=int, help=argparse.SUPPRESS)
@@ -368,7 +427,8 @@ def main(argv=None):
     os.makedirs(out, exist_ok=True)
     if args.child_seed is not None:   # one run, in its own process (rospy initializes once per process)
         try:
-            result = run_once(args.log, args.child_seed, args.rate, overrides, out, args.node, args.node_setup)
+            result = run_once(args.log, args.child_seed, args.rate, overrides, out, args.node, args.node_setup,
+                              args.slam)
         except (RuntimeError, ValueError, OSError) as e:
             print(f"bench_slam_bag: error: seed {args.child_seed}: {e}", flush=True)
             return 1
@@ -379,9 +439,9 @@ def main(argv=None):
 
 def run_seeds(args, overrides, out):
     results = []
-    print(f"{os.path.basename(args.log)}, rosbag play rate {args.rate:g}, node {args.node or NODE}")
-    print(f"{'seed':>4} {'ATE online':>10} {'ATE odom':>9} {'CPU s':>7} {'ms/update':>9} {'updates':>11} "
-          f"{'RSS MB':>7} {'wall s':>7}", flush=True)
+    print(f"{os.path.basename(args.log)}, rosbag play rate {args.rate:g}, node {args.node or SLAMS[args.slam][0]}")
+    print(f"{'seed':>4} {'ATE online':>10} {'ATE final':>9} {'ATE odom':>9} {'CPU s':>7} {'ms/update':>9} "
+          f"{'updates':>11} {'RSS MB':>7} {'wall s':>7}", flush=True)
     with tempfile.TemporaryDirectory(prefix="slam_bag_") as tmp:
         for seed in args.seeds:
             try:
@@ -392,7 +452,7 @@ def run_seeds(args, overrides, out):
                 print(f"bench_slam_bag: error: {e}", file=sys.stderr)
                 return 2
             cmd = [sys.executable, os.path.abspath(__file__), bag, "--child-seed", str(seed), "--rate", str(args.rate),
-                   "--out", out] + (["--set"] + args.set if args.set else []) \
+                   "--out", out, "--slam", args.slam] + (["--set"] + args.set if args.set else []) \
                 + (["--node", os.path.abspath(args.node)] if args.node else []) \
                 + (["--node-setup", os.path.abspath(args.node_setup)] if args.node_setup else [])
             r, failure = child_result(cmd)
@@ -400,16 +460,19 @@ def run_seeds(args, overrides, out):
                 print(f"bench_slam_bag: seed {seed} failed ({failure}", file=sys.stderr)
                 return 1
             results.append(r)
-            print(f"{seed:4d} {r['ate_online_m']:10.3f} {r['ate_odom_m']:9.3f} {r['cpu_s']:7.1f} "
+            print(f"{seed:4d} {r['ate_online_m']:10.3f} {known(r.get('ate_final_m'), '9.3f')} {r['ate_odom_m']:9.3f} "
+                  f"{r['cpu_s']:7.1f} "
                   f"{known(r['cpu_ms_per_update'], '9.1f')} {known(r['updates'], '5d')}/{r['expected_updates']:<5d} "
                   f"{r['peak_rss_mb']:7.0f} {r['play_wall_s']:7.0f}", flush=True)
     med, worst = summarize(results)
-    print(f"median ATE online {med['ate_online_m']:.3f} m (worst {worst['ate_online_m']:.3f}), odometry "
+    print(f"median ATE online {med['ate_online_m']:.3f} m (worst {worst['ate_online_m']:.3f}), final "
+          f"{known(med['ate_final_m'], '.3f')} m, odometry "
           f"{med['ate_odom_m']:.3f} m; CPU {med['cpu_s']:.1f} s, {known(med['cpu_ms_per_update'], '.1f')} ms per "
           f"update (worst {known(worst['cpu_ms_per_update'], '.1f')}); peak RSS {med['peak_rss_mb']:.0f} MB; maps in {out}")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(dict(log=os.path.abspath(args.log), node=args.node or NODE, rate=args.rate,
+            json.dump(dict(log=os.path.abspath(args.log), node=args.node or SLAMS[args.slam][0], slam=args.slam,
+                           rate=args.rate,
                            seeds=args.seeds, runs=results, median=med, worst=worst, duration=args.duration),
                       f, indent=2)
     return 0
