@@ -220,3 +220,31 @@ def test_set_pose_resets_state_and_references():
     assert_allclose(r.ekf.x[[X, 1, YAW, VX]], [1.0, 2.0, 0.5, 0.0])
     assert r.ekf.P[X, X] > 0
     assert STATE_SIZE == len(r.ekf.x)
+
+
+def test_quaternion_round_trip():
+    rng = np.random.default_rng(1)
+    for rpy in rng.uniform(-1.2, 1.2, (20, 3)):
+        r = ekf_sensors.matrix_from_quaternion(ekf_sensors.quaternion_from_euler(*rpy))
+        assert_allclose(r, ekf_sensors.rotation(*rpy), atol=1e-12)
+        assert_allclose(ekf_sensors.euler_from_matrix(r), rpy, atol=1e-12)
+
+
+# ----- odometry error --------------------------------------------------------------------
+
+def test_odom_error_no_alignment():
+    """Truth starting at (2, 7, 90 deg) driving 1 m/s along its heading; an estimate in the
+    odom frame that is perfect gives 0; one with a constant 0.1 rad heading error drifts
+    sideways: its final heading error is 0.1 and its ATE the RMS of the offset."""
+    from my_summit_localization.odom_error import odom_error
+    t = np.linspace(0.0, 10.0, 101)
+    truth = np.column_stack([t, np.full_like(t, 2.0), 7.0 + t, np.full_like(t, math.pi / 2)])
+    perfect = np.column_stack([t, t, np.zeros_like(t), np.zeros_like(t)])
+    e = odom_error(perfect, truth)
+    assert e.ate == pytest.approx(0.0, abs=1e-12) and e.final_heading == pytest.approx(0.0, abs=1e-12)
+    bad = np.column_stack([t, t * math.cos(0.1), t * math.sin(0.1), np.full_like(t, 0.1)])
+    e = odom_error(bad, truth)
+    offsets = 2 * t * math.sin(0.05)
+    assert e.final_heading == pytest.approx(0.1)
+    assert e.ate == pytest.approx(math.sqrt(np.mean(offsets ** 2)))
+    assert e.final_position == pytest.approx(offsets[-1])

@@ -20,6 +20,8 @@ import math
 
 import numpy as np
 
+from summit_nav_common.diagnostic_checks import OK, WARN, Check, fmt
+
 from .ekf import MIN_VARIANCE, STATE_NAMES, Ekf, Measurement
 
 FUTURE_LIMIT = 1.0     # [s] a stamp this far ahead of now is taken for a wrong clock and dropped
@@ -135,3 +137,20 @@ def not_finite(m: Measurement):
         if not np.all(np.isfinite(m.cov[i, m.mask])):
             return f"the covariance of {STATE_NAMES[i]}"
     return None
+
+
+def status_check(r: EkfRunner, now):
+    """The node's /diagnostics status "Filter": WARN while no measurement has come or a
+    configured topic has been silent since the start (after silent_after [s]), else OK;
+    per topic its messages received / fused / rejected / dropped."""
+    values = [("filter time", fmt(r.ekf.time if r.ekf.time is not None else "none"))]
+    for topic, c in sorted(r.counts.items()):
+        values.append((topic, f"received {c['received']}, fused {c['fused']}, rejected {c['rejected']}, "
+                              f"dropped {c['dropped']}"))
+    waited = r.start is not None and now - r.start >= r.silent_after
+    silent = [t for t, s in r.last_stamp.items() if s is None]
+    if not r.ekf.initialized:
+        return Check(WARN if waited else OK, "no measurement yet", tuple(values))
+    if silent and waited:
+        return Check(WARN, f"no message on {', '.join(silent)}; filtering the other sensors", tuple(values))
+    return Check(OK, "filtering", tuple(values))

@@ -225,3 +225,12 @@ def odometry_measurements(s: SensorState, stamp, pose, pose_cov, twist, twist_co
     if s.config[TWIST].any():
         out.append(twist_measurement(s, stamp, twist, twist_cov, base_from_child))
     return out
+
+
+def quaternion_from_euler(roll, pitch, yaw):
+    """Quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
