@@ -64,11 +64,12 @@ PROFILE_CONTAINS = {4: [0, 1, 2, 3], 8: [7]}
 class TourRecorder:
     """Ground truth, the tour's end, the latest map and SLAM trajectory, from ROS topics.
 
-    Shared by this benchmark and the mapping rostest (test/rt_mapping_tour.py). Call
-    after rospy.init_node.
+    Shared by this benchmark and the mapping rostests (test/rt_mapping_tour.py). Call
+    after rospy.init_node. slam_node: the SLAM node whose ~trajectory is recorded
+    (slam_gmapping or slam_karto).
     """
 
-    def __init__(self):
+    def __init__(self, slam_node="slam_gmapping"):
         import rospy
         from nav_msgs.msg import OccupancyGrid, Odometry, Path
         from rospy.numpy_msg import numpy_msg
@@ -84,7 +85,7 @@ class TourRecorder:
             rospy.Subscriber("/tour_driver/done", Bool, self._on_done, queue_size=1),
             rospy.Subscriber("/map", numpy_msg(OccupancyGrid), self._on_map, queue_size=1,
                              buff_size=2 ** 24),
-            rospy.Subscriber("/slam_gmapping/trajectory", Path, self._on_path, queue_size=1,
+            rospy.Subscriber(f"/{slam_node}/trajectory", Path, self._on_path, queue_size=1,
                              buff_size=2 ** 22)]
 
     def _on_truth(self, msg):
