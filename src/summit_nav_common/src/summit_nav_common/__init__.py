@@ -13,4 +13,6 @@ ROS plumbing (summit_nav_common.ros):
   map_msgs   nav_msgs/OccupancyGrid <-> GridMap
   costmap_client  a costmap kept whole from its topic and its _updates topic
   reconfigure  dynamic_reconfigure servers that refuse out-of-range values
+Test and benchmark helpers (summit_nav_common.testing): launch sessions, profiling,
+waits, ground truth, a move_base client, the unit tests' synthetic worlds.
 """

@@ -1,12 +1,9 @@
-"""tools/profile_node.stage_shares: a profile split into stages, inner stages subtracted."""
+"""summit_nav_common.testing.profile_node.stage_shares: a profile split into stages, inner stages subtracted."""
 import cProfile
 import os
-import sys
 import time
 
-WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(WS, "tools"))
-import profile_node  # noqa: E402
+from summit_nav_common.testing import profile_node
 
 
 def busy(seconds):

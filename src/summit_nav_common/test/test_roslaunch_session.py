@@ -1,4 +1,4 @@
-"""tools/roslaunch_session: a benchmark stopped with `kill PID` stops what it started.
+"""summit_nav_common.testing.roslaunch_session: a benchmark stopped with `kill PID` stops what it started.
 
 The live benchmarks run each pair or seed in a child process that holds a ROS graph
 (roslaunch, the node under test) in with-blocks and finally clauses. Regression: killing
@@ -14,13 +14,9 @@ import time
 
 import pytest
 
-WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-TOOLS = os.path.join(WS, "tools")
-
 CHILD = textwrap.dedent("""
-    import sys, time
-    sys.path.insert(0, {tools!r})
-    from roslaunch_session import exit_on_sigterm
+    import time
+    from summit_nav_common.testing.roslaunch_session import exit_on_sigterm
     exit_on_sigterm()
     try:
         open({ready!r}, "w").close()
@@ -33,8 +29,7 @@ PARENTS = {
     # bench_slam_bag.py, bench_move_base_live.py
     "child_result": textwrap.dedent("""
         import sys
-        sys.path.insert(0, {tools!r})
-        from roslaunch_session import child_result, exit_on_sigterm
+        from summit_nav_common.testing.roslaunch_session import child_result, exit_on_sigterm
         exit_on_sigterm()
         child_result([sys.executable, {child!r}])
     """),
@@ -42,9 +37,8 @@ PARENTS = {
     # the run's roslaunch, amcl or move_base running (session 28)
     "profile_node.run_child": textwrap.dedent("""
         import sys
-        sys.path.insert(0, {tools!r})
-        import profile_node
-        from roslaunch_session import exit_on_sigterm
+        from summit_nav_common.testing import profile_node
+        from summit_nav_common.testing.roslaunch_session import exit_on_sigterm
         exit_on_sigterm()
         profile_node.run_child([sys.executable, {child!r}], 0)
     """),
@@ -62,9 +56,9 @@ def _wait_for(path, timeout=20.0):
 def test_killing_the_parent_lets_the_child_run_its_cleanup(tmp_path, runner):
     ready, cleaned = str(tmp_path / "ready"), str(tmp_path / "cleaned")
     child = tmp_path / "child.py"
-    child.write_text(CHILD.format(tools=TOOLS, ready=ready, cleaned=cleaned))
+    child.write_text(CHILD.format(ready=ready, cleaned=cleaned))
     parent = tmp_path / "parent.py"
-    parent.write_text(PARENTS[runner].format(tools=TOOLS, child=str(child)))
+    parent.write_text(PARENTS[runner].format(child=str(child)))
     proc = subprocess.Popen([sys.executable, str(parent)])
     try:
         _wait_for(ready)
@@ -79,8 +73,7 @@ def test_killing_the_parent_lets_the_child_run_its_cleanup(tmp_path, runner):
 
 
 def test_a_wait_names_the_process_that_ended_its_exit_status_and_its_last_lines(tmp_path):
-    sys.path.insert(0, TOOLS)
-    from roslaunch_session import Watched, wait_for
+    from summit_nav_common.testing.roslaunch_session import Watched, wait_for
     log = tmp_path / "node.log"
     with open(log, "w") as out:
         proc = subprocess.Popen([sys.executable, "-c", "print('bad parameter: particles'); raise SystemExit(3)"],
