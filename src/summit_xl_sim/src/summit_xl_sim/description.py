@@ -1,7 +1,8 @@
 """The robot's geometry from its URDF: fixed joints and the laser's mounting pose.
 
 Only fixed joints are read (the simplified Summit XL has no others); the simulator
-publishes them as static transforms and casts its laser from the pose they give.
+publishes them as static transforms, casts its laser from the pose they give and takes
+its IMU's lever arm from them.
 """
 import math
 import xml.etree.ElementTree as ET
@@ -71,10 +72,21 @@ def frame_pose(joints, root, frame, source="URDF"):
     return m
 
 
-def laser_mount(joints, base="base_footprint", laser="hokuyo_base_link", source="URDF"):
-    """(x, y, yaw) of the laser in the base frame; DescriptionError when not level."""
-    m = frame_pose(joints, base, laser, source)
+def level_mount(joints, base, frame, source="URDF"):
+    """(x, y, yaw) of ``frame`` in ``base``; DescriptionError when it is not mounted level."""
+    m = frame_pose(joints, base, frame, source)
     z_axis = m[:3, 2]
     if abs(z_axis[2] - 1.0) > 1e-6:
-        raise DescriptionError(f"{source}: laser '{laser}' is not mounted level (z axis {z_axis.round(3)})")
+        raise DescriptionError(f"{source}: '{frame}' is not mounted level (z axis {z_axis.round(3)})")
     return float(m[0, 3]), float(m[1, 3]), math.atan2(m[1, 0], m[0, 0])
+
+
+def laser_mount(joints, base="base_footprint", laser="hokuyo_base_link", source="URDF"):
+    """(x, y, yaw) of the laser in the base frame; DescriptionError when not level."""
+    return level_mount(joints, base, laser, source)
+
+
+def imu_mount(joints, base="base_footprint", imu="imu_link", source="URDF"):
+    """(x, y, yaw) of the IMU in the base frame (its lever arm and heading); DescriptionError
+    when it is missing or not level (the simulated IMU is for a robot on level ground)."""
+    return level_mount(joints, base, imu, source)

@@ -23,10 +23,15 @@ from summit_nav_common import geometry
 
 from . import robot as rb
 from .battery import Battery, near_dock
+from .imu import ImuModel
 from .laser_model import DEFAULT_LASER_MODEL, make_laser_model, report
 from .world import World, WorldError, rects_overlap
 
 DRIVES = ("diff", "omni")
+# Extra seed words of a robot's own generators: [seed, index] draws the odometry's white
+# noise and the laser's (as before these existed), [seed, index, k] each of these.
+SKID_STREAM = 1
+IMU_STREAM = 2
 # Free travel [m] (footprint corners' path) after which a new block counts as a new collision.
 CONTACT_RESET = 0.05
 
@@ -77,8 +82,13 @@ class RobotState:
     last_hit: str = ""            # what the last collision was with (blocked_by's answer)
     in_contact: bool = False
     free_travel: float = 0.0          # [m] moved since the last blocked move
-    odom_vel: tuple = (0.0, 0.0, 0.0)
+    odom_vel: tuple = (0.0, 0.0, 0.0)  # the odometry's twist (the wheels' view for skid)
+    odom_model: str = "ideal"          # robot.ODOM_MODELS
+    skid_scale: float = 0.0            # slowly varying part s(t) of the skid yaw scale [-]
+    odom_budget: tuple = (0.0, 0.0, 0.0, 0.0)  # skid odometry's error budget (robot.skid_pose_budget_step)
     rng: np.random.Generator = field(default=None, repr=False)
+    skid_rng: np.random.Generator = field(default=None, repr=False)   # draws of s(t)
+    imu: object = field(default=None, repr=False)  # imu.ImuModel, or None: no IMU
     range_model: object = field(default=None, repr=False)  # laser_model.IdealLaser / Utm30lxLaser
     battery: Battery = field(default=None, repr=False)
 
@@ -86,6 +96,12 @@ class RobotState:
         """Footprint as an oriented rectangle (cx, cy, yaw, half_length, half_width)."""
         x, y, yaw = self.pose
         return (x, y, yaw, self.params.length / 2.0, self.params.width / 2.0)
+
+
+def default_odom_model(drive):
+    """The odometry model a robot of this drive gets by default: skid for the skid-steer
+    base (diff), ideal for the mecanum one (omni)."""
+    return "skid" if drive == "diff" else "ideal"
 
 
 class Simulation:
@@ -108,15 +124,25 @@ class Simulation:
         self.dock_radius = float(dock_radius)
 
     # -- robots -------------------------------------------------------------------
-    def add_robot(self, name, x, y, yaw, drive="diff", params=None, laser=None, battery=None):
+    def add_robot(self, name, x, y, yaw, drive="diff", params=None, laser=None, battery=None,
+                  odom_model=None, imu=None):
         """Spawn a robot; WorldError naming it when the pose is off the map or blocked.
 
         battery: its Battery (default: a full pack with BatteryParams' defaults).
+        odom_model: robot.ODOM_MODELS; None: default_odom_model(drive).
+        imu: an imu.ImuSpec to carry an IMU (imu.ImuModel, seeded from the simulation's
+        seed and the robot's index, its own stream: the other draws do not change), or None.
         """
         if name in self.robots:
             raise WorldError(f"robot '{name}' already exists")
         if drive not in DRIVES:
             raise WorldError(f"robot '{name}': drive must be one of {DRIVES}, got {drive!r}")
+        odom_model = default_odom_model(drive) if odom_model is None else odom_model
+        if odom_model not in rb.ODOM_MODELS:
+            raise WorldError(f"robot '{name}': odom_model must be one of {rb.ODOM_MODELS}, got {odom_model!r}")
+        if odom_model == "skid" and drive != "diff":
+            raise WorldError(f"robot '{name}': odom_model skid is the skid-steer base's; drive {drive} "
+                             f"(mecanum) takes odom_model ideal")
         params = params or rb.RobotParams()
         laser = laser or LaserParams()
         try:
@@ -126,7 +152,10 @@ class Simulation:
         state = RobotState(name=name, drive=drive, params=params, laser=laser,
                            pose=(float(x), float(y), geometry.wrap_angle(float(yaw))),
                            rng=np.random.default_rng([self._seed, len(self.robots)]),
-                           range_model=range_model, battery=battery or Battery())
+                           skid_rng=np.random.default_rng([self._seed, len(self.robots), SKID_STREAM]),
+                           odom_model=odom_model, range_model=range_model, battery=battery or Battery())
+        if imu is not None:
+            state.imu = ImuModel(imu, np.random.default_rng([self._seed, len(self.robots), IMU_STREAM]))
         self._check_free(state, state.pose, spawning=True)
         self.robots[name] = state
         return state
@@ -212,39 +241,65 @@ class Simulation:
         """Advance every robot by dt [s] of simulated time."""
         self.time += dt
         for state in self.robots.values():
-            cmd = state.cmd
-            battery = state.battery
-            if self.time - state.last_cmd_time > state.params.cmd_timeout or battery.empty:
-                cmd = (0.0, 0.0, 0.0)  # watchdog: stale command; or the pack cut the motors
-            vel = rb.step_velocity(state.params, state.vel, cmd, dt)
-            # The pack sees the velocity the robot is asked to reach this step (a blocked
-            # move stalls the motors at that load for the step).
-            speed = math.hypot(vel[0], vel[1])
-            battery.step(dt, speed, vel[2],
-                         bool(self.docks) and near_dock(state.pose[0], state.pose[1], self.docks, self.dock_radius))
-            if vel == (0.0, 0.0, 0.0):
-                state.vel = vel
-                state.odom_vel = vel
-                continue
-            new_pose = rb.integrate_pose(state.pose, vel, dt)
-            hit = self.blocked_by(state, new_pose)
-            if hit is not None:
-                if not state.in_contact:
-                    state.collisions += 1
-                    state.last_hit = hit
-                state.in_contact = True
-                state.free_travel = 0.0
-                state.vel = (0.0, 0.0, 0.0)
-                state.odom_vel = state.vel
-                continue
-            inc = tuple(geometry.relative(state.pose, new_pose))
-            state.free_travel += math.hypot(inc[0], inc[1]) + abs(inc[2]) * state.params.circumradius
-            if state.free_travel > CONTACT_RESET:
-                state.in_contact = False
-            state.odom_pose = tuple(geometry.compose(state.odom_pose, rb.noisy_increment(state.params, inc, state.rng)))
-            state.pose = new_pose
+            before = state.vel
+            self._move(state, dt)
+            if state.imu is not None:
+                state.imu.accumulate(before, state.vel, dt)
+
+    def _move(self, state, dt):
+        """One robot's step: velocity, battery, collision check, pose and odometry."""
+        cmd = state.cmd
+        battery = state.battery
+        skid = state.odom_model == "skid"
+        if skid:
+            state.skid_scale = rb.skid_scale_step(state.params, state.skid_scale, dt, state.skid_rng)
+        if self.time - state.last_cmd_time > state.params.cmd_timeout or battery.empty:
+            cmd = (0.0, 0.0, 0.0)  # watchdog: stale command; or the pack cut the motors
+        vel = rb.step_velocity(state.params, state.vel, cmd, dt)
+        # The pack sees the velocity the robot is asked to reach this step (a blocked
+        # move stalls the motors at that load for the step).
+        speed = math.hypot(vel[0], vel[1])
+        battery.step(dt, speed, vel[2],
+                     bool(self.docks) and near_dock(state.pose[0], state.pose[1], self.docks, self.dock_radius))
+        if vel == (0.0, 0.0, 0.0):
             state.vel = vel
             state.odom_vel = vel
+            return
+        new_pose = rb.integrate_pose(state.pose, vel, dt)
+        hit = self.blocked_by(state, new_pose)
+        if hit is not None:
+            if not state.in_contact:
+                state.collisions += 1
+                state.last_hit = hit
+            state.in_contact = True
+            state.free_travel = 0.0
+            state.vel = (0.0, 0.0, 0.0)
+            state.odom_vel = state.vel
+            return
+        inc = tuple(geometry.relative(state.pose, new_pose))
+        state.free_travel += math.hypot(inc[0], inc[1]) + abs(inc[2]) * state.params.circumradius
+        if state.free_travel > CONTACT_RESET:
+            state.in_contact = False
+        if skid:
+            odom_inc = rb.skid_increment(state.params, inc, vel[2], state.skid_scale, state.rng)
+            state.odom_vel = rb.skid_twist(state.params, vel, state.skid_scale)
+            state.odom_budget = rb.skid_pose_budget_step(state.params, state.odom_budget, inc, vel[2])
+        else:
+            odom_inc = rb.noisy_increment(state.params, inc, state.rng)
+            state.odom_vel = vel
+        state.odom_pose = tuple(geometry.compose(state.odom_pose, odom_inc))
+        state.pose = new_pose
+        state.vel = vel
+
+    def odom_covariance(self, name):
+        """Diagonal variances of robot ``name``'s odometry: ((x, y, yaw) of the pose,
+        (vx, vy, wz) of the twist) [m^2, rad^2, m^2/s^2, rad^2/s^2] for odom_model skid
+        (robot.skid_pose_covariance, robot.skid_twist_covariance); None for ideal, whose
+        messages carry no covariance."""
+        state = self.robot(name)
+        if state.odom_model != "skid":
+            return None
+        return rb.skid_pose_covariance(state.odom_budget), rb.skid_twist_covariance(state.params, state.vel)
 
     # -- sensing ----------------------------------------------------------------------
     def laser_pose(self, state):
