@@ -1,7 +1,6 @@
 #!/usr/bin/python3
 """rostest: topics, rates (sim time), tf chain, motion as commanded, watchdog, NaN twist."""
 import math
-import sys
 import unittest
 
 import rospy
@@ -11,8 +10,8 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from simtest_util import Latest, sleep_sim, wait_clock, yaw_of  # noqa: E402
+from summit_nav_common.geometry import quaternion_to_yaw as yaw_of
+from summit_nav_common.testing.waits import Latest, sleep_sim, wait_clock
 
 
 class SimBasics(unittest.TestCase):

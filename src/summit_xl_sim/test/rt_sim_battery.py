@@ -5,7 +5,6 @@ standing at the dock charges (CHARGING); /diagnostics carries the scan, odometry
 real-time factor and battery checks (the scan's "no subscriber": none here), the battery
 WARN at 15 % and ERROR at 3 %."""
 import math
-import sys
 import time
 import unittest
 
@@ -18,8 +17,7 @@ from sensor_msgs.msg import BatteryState
 
 from summit_xl_sim.srv import SetBattery
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from simtest_util import Latest, sleep_sim, wait_clock  # noqa: E402
+from summit_nav_common.testing.waits import Latest, sleep_sim, wait_clock
 
 DOCK = (0.0, -4.0)  # race_track_waypoints.yaml's dock [m]
 CHECKS = ("summit_xl_sim: Laser scan rate", "summit_xl_sim: Odometry rate", "summit_xl_sim: Battery",

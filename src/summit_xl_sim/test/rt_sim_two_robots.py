@@ -1,6 +1,5 @@
 #!/usr/bin/python3
 """rostest: two robots, each in its namespace with prefixed frames, see each other."""
-import sys
 import unittest
 
 import rospy
@@ -9,8 +8,7 @@ import tf2_ros
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from simtest_util import Latest, wait_clock  # noqa: E402
+from summit_nav_common.testing.waits import Latest, wait_clock
 
 
 class TwoRobots(unittest.TestCase):

@@ -2,7 +2,6 @@
 """rostest: driven into a wall the robot stops at it, the collision count says 1; the
 set_robot_pose / add_box / remove_box services, including their refusals."""
 import math
-import sys
 import unittest
 
 import rospy
@@ -14,8 +13,7 @@ from std_msgs.msg import UInt32
 
 from summit_xl_sim.srv import AddBox, RemoveBox, SetRobotPose
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from simtest_util import Latest, sleep_sim, wait_clock  # noqa: E402
+from summit_nav_common.testing.waits import Latest, sleep_sim, wait_clock
 
 WALL_FACE_X = 0.10  # inner face of the west wall of the built-in world [m]
 HALF_LENGTH = 0.36

@@ -5,7 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from summit_nav_common.map_io import OCCUPIED, GridMap
+from summit_nav_common.testing import scenes
 from summit_xl_sim.laser_model import IdealLaser, Utm30lxLaser, make_laser_model
 from summit_xl_sim.sim import LaserParams, Simulation
 from summit_xl_sim.world import World, WorldError
@@ -17,15 +17,8 @@ STEP = LASER.angle_increment
 
 
 def empty_room(size_m=20.0, resolution=0.05):
-    """A square room of side size_m [m]: open inside, walls only on the map's border.
-
-    Seen from inside, its walls meet at concave corners: no depth edge anywhere.
-    """
-    n = int(round(size_m / resolution))
-    data = np.zeros((n, n), np.int8)
-    data[[0, -1], :] = OCCUPIED
-    data[:, [0, -1]] = OCCUPIED
-    return World(GridMap(data=data, resolution=resolution))
+    """The simulator's world of scenes.square_room: no depth edge anywhere."""
+    return World(scenes.square_room(size_m, resolution))
 
 
 def scans(sim, name, count):
