@@ -18,6 +18,7 @@ import numpy as np
 LIB_NAME = "libsummit_nav_kernels.so"
 
 _f64 = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+_f32 = np.ctypeslib.ndpointer(dtype=np.float32, flags="C_CONTIGUOUS")
 _i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
 _i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
 _u8 = np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS")
@@ -28,6 +29,12 @@ SIGNATURES = {
     "snc_grid_csr": (_int64, [_f64, _u8, _i64, _int64, _int64, _i64, _i32, _f64]),
     "snc_reduced_weights": (None, [_i64, _i32, _f64, _f64, _int64, _f64]),
     "snc_dijkstra": (ctypes.c_int, [_i64, _i32, _f64, _int64, _int64, ctypes.c_double, _f64]),
+    # csrc/distance.c, interpolate.c, components.c (summit_nav_common.grid_kernels)
+    "snc_edt": (ctypes.c_int, [_u8, _int64, _int64, _f32]),
+    "snc_chamfer5_labels": (ctypes.c_int, [_u8, _int64, _int64, _f32, _i32]),
+    "snc_remap_bilinear": (None, [_f32, _int64, _int64, _f32, _f32, _int64, ctypes.c_float, _f32]),
+    "snc_upsample_linear": (None, [_f32, _int64, _int64, _int64, _f32, _f32]),
+    "snc_label8": (_int64, [_u8, _int64, _int64, _i32]),
 }
 
 
