@@ -88,6 +88,7 @@ KARTO_EVAL_PARAMS = dict(resolution=0.05, base_frame="base_link", odom_frame="od
 KARTO_GATE = (0.2, 0.174)   # open_karto's minimum_travel_distance [m] / _heading [rad] defaults
 SLAMS = {"gmapping": (NODE, NODE_NAME), "karto": (KARTO_NODE, KARTO_NAME)}
 SERIALIZE_TIMEOUT = 120.0   # [s wall] for ~serialize_map at the end of a karto run
+STAMP_MATCH = 1e-6          # [s] a graph node's stamp is its scan's (both from the message header)
 MAX_URANGE_CAP = 50.0   # [m] maxUrange at most this (the evaluation's setting)
 RANGE_MARGIN = 0.01     # [m] maxUrange = no-return - this, maxRange = no-return + this
 MAP_MARGIN = 5.0        # [m] around the reference trajectory for xmin..ymax
@@ -153,7 +154,7 @@ def node_command(node=None, slam="gmapping"):
 def final_graph(service, path, scans):
     """The pose graph a slam_karto node saves through `service` (~serialize_map) to
     path.posegraph at the end of a run: (node poses (N, 3) after its last optimization, the
-    index of each node's scan in `scans`, matched by odometry pose)."""
+    index of each node's scan in `scans`, matched by stamp)."""
     import rospy
     from my_summit_mapping.karto.mapper import KartoMapper
     from my_summit_mapping.srv import SerializePoseGraph
@@ -161,12 +162,13 @@ def final_graph(service, path, scans):
     rospy.ServiceProxy(service, SerializePoseGraph)(filename=path)
     graph = KartoMapper.load(path + ".posegraph")
     poses = np.asarray(graph.node_poses(), float).reshape(-1, 3)
-    odom = np.asarray(graph.node_odometry(), float).reshape(-1, 3)
-    # each node's odometry pose is its scan's (the bag's float64 tf): the nearest scan's
-    d = np.linalg.norm(odom[:, None, :2] - scans.odometry[None, :, :2], axis=2)
-    index = d.argmin(axis=1)
-    if np.any(d[np.arange(len(index)), index] > 1e-6):
-        raise RuntimeError(f"{path}.posegraph: a node's odometry pose matches no scan of the bag")
+    stamps = np.asarray(graph.node_stamps(), float)
+    index = np.clip(np.searchsorted(scans.stamps, stamps), 0, len(scans.stamps) - 1)
+    near = np.abs(scans.stamps[index] - stamps) <= STAMP_MATCH
+    before = np.abs(scans.stamps[index - 1] - stamps) <= STAMP_MATCH
+    index = np.where(near, index, index - 1)
+    if not np.all(near | before):
+        raise RuntimeError(f"{path}.posegraph: a node's stamp matches no scan of the bag")
     return poses, index
 
 
