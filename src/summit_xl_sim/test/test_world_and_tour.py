@@ -12,7 +12,7 @@ from summit_nav_common.map_io import GridMap, load_map
 from summit_xl_sim.sim import Simulation
 from summit_xl_sim.tour import TourParams, tour_command
 from summit_xl_sim.world import World, WorldError
-from summit_xl_sim.worldgen import WorldDescriptionError, build_world, load_description
+from summit_xl_sim.worldgen import WorldDescriptionError, build_world, load_description, world_spots
 
 WORLDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "worlds")
 DESC = os.path.join(WORLDS, "course_building.world.yaml")
@@ -35,6 +35,14 @@ def test_spots_and_spawn_are_free():
         sim.add_robot(f"r{i}", x, y, math.radians(yaw_deg))  # raises if blocked
         sim.robots.clear()
     assert set(doc["spots"]) == {"room", "turtle", "table"}
+
+
+def test_world_spots_give_the_yaw_in_radians():
+    doc = load_description(DESC)
+    spots = world_spots(DESC)
+    assert set(spots) == set(doc["spots"])
+    for label, (x, y, yaw_deg) in doc["spots"].items():
+        assert spots[label] == pytest.approx((x, y, math.radians(yaw_deg)))
 
 
 def test_tour_visits_every_room_without_collision():

@@ -67,6 +67,12 @@ def load_description(path):
     return doc
 
 
+def world_spots(path):
+    """{label: (x [m], y [m], yaw [rad])} of a world description's spots (world frame;
+    the YAML gives yaw in degrees)."""
+    return {k: (v[0], v[1], math.radians(v[2])) for k, v in load_description(path)["spots"].items()}
+
+
 def _load_track(track, where):
     """Validate one track entry {width, closed, centre: [[x, y] or [x, y, radius], ...]}."""
     if not isinstance(track, dict):
