@@ -1,12 +1,10 @@
 """Bad input at launch: the simulator fails at once, naming the file or pose and why."""
 import os
-import sys
 import time
 
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
-from roslaunch_session import free_port, run_bounded  # noqa: E402
+from summit_nav_common.testing.roslaunch_session import free_port, run_bounded
 
 TIMEOUT = 60  # [s]
 
@@ -48,3 +46,13 @@ def test_spawn_in_wall_and_off_map(tmp_path):
     assert "cannot spawn" in out and "overlaps a wall" in out, out[-3000:]
     _, out = launch(tmp_path, "x:=80.0", "y:=6.0")
     assert "off the map" in out, out[-3000:]
+
+
+@pytest.mark.integration
+def test_bad_odom_model_and_imu_rate(tmp_path):
+    _, out = launch(tmp_path, "odom_model:=slippery")
+    assert "~odom_model must be one of ideal, skid" in out and "REQUIRED process [summit_xl_sim" in out, out[-3000:]
+    _, out = launch(tmp_path, "drive:=omni", "odom_model:=skid")
+    assert "odom_model skid is the skid-steer base's; drive omni" in out, out[-3000:]
+    _, out = launch(tmp_path, "imu_rate:=0")
+    assert "~imu_rate must be > 0" in out, out[-3000:]
