@@ -119,6 +119,11 @@ int snc_chamfer5_labels(const uint8_t *src, int64_t h, int64_t w, float *dist, i
     const int64_t fdy[8] = {-2, -2, -1, -1, -1, -1, -1, 0};
     const int64_t fdx[8] = {-1, 1, -2, -1, 0, 1, 2, -1};
     const int32_t fw[8] = {c, c, c, b, a, b, c, a};
+    int64_t ft[8], fl[8];                         /* offsets in buf and in labels */
+    for (int n = 0; n < 8; ++n) {
+        ft[n] = fdy[n] * stride + fdx[n];
+        fl[n] = fdy[n] * w + fdx[n];
+    }
     for (int64_t y = 0; y < h; ++y) {
         int32_t *t = buf + (y + B) * stride + B;
         for (int64_t x = 0; x < w; ++x) {
@@ -128,12 +133,11 @@ int snc_chamfer5_labels(const uint8_t *src, int64_t h, int64_t w, float *dist, i
             }
             int32_t best = CH_FAR, lab = 0;
             for (int n = 0; n < 8; ++n) {
-                int32_t cand = t[x + fdy[n] * stride + fdx[n]] + fw[n];
+                int32_t cand = t[x + ft[n]] + fw[n];
                 if (best > cand) {
                     best = cand;
-                    int64_t ly = y + fdy[n], lx = x + fdx[n];
                     /* off the grid the distance is CH_FAR + weight, never chosen */
-                    lab = labels[ly * w + lx];
+                    lab = labels[y * w + x + fl[n]];
                 }
             }
             t[x] = best;
@@ -144,16 +148,21 @@ int snc_chamfer5_labels(const uint8_t *src, int64_t h, int64_t w, float *dist, i
     const int64_t bdy[8] = {2, 2, 1, 1, 1, 1, 1, 0};
     const int64_t bdx[8] = {1, -1, 2, 1, 0, -1, -2, 1};
     const int32_t bw[8] = {c, c, c, b, a, b, c, a};
+    int64_t bt[8], bl[8];
+    for (int n = 0; n < 8; ++n) {
+        bt[n] = bdy[n] * stride + bdx[n];
+        bl[n] = bdy[n] * w + bdx[n];
+    }
     for (int64_t y = h - 1; y >= 0; --y) {
         int32_t *t = buf + (y + B) * stride + B;
         for (int64_t x = w - 1; x >= 0; --x) {
             int32_t best = t[x], lab = labels[y * w + x];
             if (best > a) {
                 for (int n = 0; n < 8; ++n) {
-                    int32_t cand = t[x + bdy[n] * stride + bdx[n]] + bw[n];
+                    int32_t cand = t[x + bt[n]] + bw[n];
                     if (best > cand) {
                         best = cand;
-                        lab = labels[(y + bdy[n]) * w + (x + bdx[n])];
+                        lab = labels[y * w + x + bl[n]];
                     }
                 }
                 t[x] = best;
