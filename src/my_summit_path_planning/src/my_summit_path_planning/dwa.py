@@ -75,11 +75,11 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from summit_nav_common.geometry import transform_points, wrap_angle
+from summit_nav_common.grid_kernels import chamfer_labels, distance_transform, remap_bilinear
 
 EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
 MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
@@ -97,7 +97,6 @@ ESCAPE_VEL_X = 0.2         # [m/s] backing-up speed allowed in escape mode even 
 NO_OBSTACLE_DIST = 1.0e6   # [m] distance field value when the costmap has no blocked cell
 ESCAPE_GAIN = 0.01         # [m] clearance a backing-up trajectory must regain in escape mode
 ALONG_PLAN_GAIN = 0.05     # [m] ... unless it gets this much nearer the goal along the plan
-REMAP_COLS = 4096          # poses per row of the cv2.remap maps
 OUTSIDE_DIST = -1.0e6      # [m] distance field value off the costmap (counts as a collision)
 # The axis circles stick out ~0.25 m past a rectangle's ends: poses whose axis-circle
 # clearance is below this are checked again with the footprint's finer grid circles.
@@ -494,7 +493,8 @@ def _along_plan(togo, dist_path, costmap, pose, ex, ey, gain=ALONG_PLAN_GAIN):
 def path_distance_maps(local, costmap):
     """Two (H, W) fields [m] over the costmap for a local plan (N, 2) [m]:
     distance to the nearest plan cell, and plan length left to the plan's end from that
-    nearest plan cell. One cv2.distanceTransformWithLabels pass.
+    nearest plan cell. One chamfer distance transform with labels (OpenCV's
+    distanceTransformWithLabels, DIST_MASK_5: grid_kernels.chamfer_labels).
     """
     res = costmap.resolution
     h, w = costmap.data.shape
@@ -516,8 +516,7 @@ def path_distance_maps(local, costmap):
         inf = np.full((h, w), np.inf, np.float32)
         return inf, inf
     mask[cy, cx] = 0
-    dist, labels = cv2.distanceTransformWithLabels(mask, cv2.DIST_L2, cv2.DIST_MASK_5,
-                                                   labelType=cv2.DIST_LABEL_PIXEL)
+    dist, labels = chamfer_labels(mask)
     left_cell = np.full((h, w), np.inf)
     np.minimum.at(left_cell, (cy, cx), left)  # a cell's plan length left: its smallest
     lab_left = np.full(int(labels.max()) + 1, np.inf)
@@ -635,8 +634,7 @@ def obstacle_distance(costmap):
     blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
     if not blocked.any():
         return None
-    return cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2,
-                                 cv2.DIST_MASK_PRECISE) * costmap.resolution
+    return distance_transform((~blocked).astype(np.uint8)) * costmap.resolution
 
 
 def footprint_checks(footprint):
@@ -690,31 +688,18 @@ def footprint_clearance(dist_m, costmap, x, y, th, covers, corners=None):
     return clear.reshape(shape)
 
 
-def _lay_out(values, n, rows, cols):
-    flat = np.zeros(rows * cols)
-    flat[:n] = np.asarray(values, dtype=np.float64).ravel()
-    return flat.reshape(rows, cols)
-
-
 def _cover_clearance(field, costmap, x, y, th, centres, radius, margin):
     """min over the circles of (interpolated distance at the circle centre - radius - margin [m])."""
     res = costmap.resolution
-    n = x.size
-    # cv2.remap wants 2-D maps under 32767 a side: lay the poses out in rows of REMAP_COLS.
-    rows = max(1, -(-n // REMAP_COLS))
-    cols = min(n, REMAP_COLS) if n else 1
-    x, y, th = _lay_out(x, n, rows, cols), _lay_out(y, n, rows, cols), _lay_out(th, n, rows, cols)
     clear = np.full(x.shape, np.inf, dtype=np.float32)
     c, s = np.cos(th), np.sin(th)
     for cx, cy in centres:
-        # Continuous cell-centre coordinates; cv2.remap interpolates bilinearly (in C)
-        # and answers OUTSIDE_DIST off the grid.
+        # Continuous cell-centre coordinates; remap_bilinear interpolates bilinearly (in
+        # C, OpenCV's remap to the bit) and answers OUTSIDE_DIST off the grid.
         fx = ((x + cx * c - cy * s - costmap.origin_x) / res - 0.5).astype(np.float32)
         fy = ((y + cx * s + cy * c - costmap.origin_y) / res - 0.5).astype(np.float32)
-        d = cv2.remap(field, fx, fy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                      borderValue=OUTSIDE_DIST)
-        np.minimum(clear, d, out=clear)
-    return clear.astype(np.float64).ravel()[:n] - (radius + margin)
+        np.minimum(clear, remap_bilinear(field, fx, fy, OUTSIDE_DIST), out=clear)
+    return clear.astype(np.float64) - (radius + margin)
 
 
 def _corner_clearance(field, costmap, x, y, th, corners):

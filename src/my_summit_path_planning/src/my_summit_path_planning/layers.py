@@ -10,14 +10,14 @@ decay); documentation at wiki.ros.org/costmap_2d/hydro/{staticmap,obstacles,infl
 Each layer has the small interface of ``costmap.Layer`` and is chosen by the plugin
 type string of a costmap_2d YAML (``make_layer``). Everything is vectorized: clearing
 traces all rays at once (a vectorized walk along the exact rays, two samples per
-cell; ``ray_cells`` is the integer Bresenham-equivalent walk) and inflation is one ``cv2.distanceTransform``.
+cell; ``ray_cells`` is the integer Bresenham-equivalent walk) and inflation is one exact distance transform (``grid_kernels.distance_transform``, OpenCV's to the bit).
 """
 import dataclasses
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
+from summit_nav_common.grid_kernels import distance_transform
 from summit_nav_common.params import unread_notes
 
 from .cost_values import (FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE,
@@ -635,7 +635,7 @@ class InflationLayer(Layer):
     Parameters: inflation_radius [m] (costs stop beyond it), cost_scaling_factor [1/m]
     (decay rate), inflate_unknown (unknown cells also inflate), enabled. The inscribed
     radius comes from the costmap's footprint. Distances are exact Euclidean distances
-    between cell centres (cv2.distanceTransform, DIST_MASK_PRECISE), as costmap_2d's
+    between cell centres (grid_kernels.distance_transform: OpenCV's DIST_MASK_PRECISE), as costmap_2d's
     cell-offset distance table; cells farther than ceil(inflation_radius / resolution)
     cells get nothing.
     """
@@ -675,7 +675,7 @@ class InflationLayer(Layer):
             src |= region == NO_INFORMATION
         if not src.any():
             return
-        dist = cv2.distanceTransform((~src).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        dist = distance_transform((~src).astype(np.uint8))
         dist = dist[y0 - ey0:y1 - ey0, x0 - ex0:x1 - ex0]
         cost = inflation_cost(dist * res, self.layered.inscribed_radius, self.cost_scaling_factor)
         cost[dist > rc + 1e-3] = FREE_SPACE

@@ -46,10 +46,10 @@ import heapq
 import math
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+from summit_nav_common.grid_kernels import components8, dilate3, distance_transform, erode3, upsample_linear
 from summit_nav_common.native import library as _native
 
 # navfn.h: navfn cost values are COST_NEUTRAL + COST_FACTOR * costmap cost. Costmap
@@ -238,7 +238,7 @@ class GridGraph:
         if getattr(self, "_labels", None) is None:
             # the components of the graph are those of the passable cells, 8-connected
             passable = (self.node_of >= 0).reshape(self.shape).astype(np.uint8)
-            self._labels = cv2.connectedComponents(passable, connectivity=8, ltype=cv2.CV_32S)[1].ravel()
+            self._labels = components8(passable).ravel()
         return int(self._labels[cell]) if self.node_of[cell] >= 0 else -1
 
     def potential_toward(self, source_cell, target_cell, cost_estimate=None, guide=None):
@@ -373,7 +373,7 @@ def gradient_path(pot, start_cell, max_cycles=None):
         return None
     unreached = (pot >= POT_HIGH).astype(np.uint8)
     # near[c]: some 8-neighbour of c is unreached (or off the grid): take grid steps there.
-    near = cv2.dilate(np.pad(unreached, 1, constant_values=1), np.ones((3, 3), np.uint8))[1:-1, 1:-1]
+    near = dilate3(np.pad(unreached, 1, constant_values=1))[1:-1, 1:-1]
     near = near.ravel()
     flat = pot.ravel()
     cache = {}
@@ -451,7 +451,7 @@ def shortcut_path(cells, cell_cost, safe=None):
     h, w = cost.shape
     if safe is None:
         ok = np.isfinite(cost).astype(np.uint8)
-        safe = cv2.erode(np.pad(ok, 1, constant_values=0), np.ones((3, 3), np.uint8))[1:-1, 1:-1] > 0
+        safe = erode3(np.pad(ok, 1, constant_values=0))[1:-1, 1:-1] > 0
 
     def cell_cost_at(q):
         ix = np.clip(np.floor(q[:, 0] + 0.5).astype(np.int64), 0, w - 1)
@@ -589,7 +589,7 @@ class NavFn:
         self._graph = GridGraph(cell_cost)
         self._coarse = GridGraph(coarse_cost_grid(cell_cost))
         ok = np.isfinite(cell_cost).astype(np.uint8)
-        self._safe = cv2.erode(np.pad(ok, 1, constant_values=0), np.ones((3, 3), np.uint8))[1:-1, 1:-1] > 0
+        self._safe = erode3(np.pad(ok, 1, constant_values=0))[1:-1, 1:-1] > 0
         self._cache_costs = cell_cost.copy()
         return self._graph
 
@@ -607,10 +607,10 @@ class NavFn:
         pot = np.where(reached, pot * k, 0.0).astype(np.float32)
         # Blocks with no passable cell take their neighbours' largest value, so the
         # interpolation does not dip next to walls.
-        grown = cv2.dilate(pot, np.ones((3, 3), np.uint8))
+        grown = dilate3(pot)
         pot = np.where(reached, pot, grown)
         h, w = shape
-        fine = cv2.resize(pot, (pot.shape[1] * k, pot.shape[0] * k), interpolation=cv2.INTER_LINEAR)
+        fine = upsample_linear(pot, k)
         return k * float(v), GUIDE_WEIGHT * fine[:h, :w]
 
     def make_plan(self, costmap, start, goal, tolerance=None):
@@ -686,13 +686,13 @@ def start_region(forbidden, lethal, sc):
     if forbidden.all():
         depth0 = math.inf
     else:
-        depth = cv2.distanceTransform(forbidden.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        depth = distance_transform(forbidden.astype(np.uint8))
         depth0 = float(depth[sc[1], sc[0]])
     if depth0 > START_REGION_MAX:
-        mask = np.zeros((h + 2, w + 2), np.uint8)
-        img = blocked.astype(np.uint8)
-        cv2.floodFill(img, mask, (int(sc[0]), int(sc[1])), 2, flags=8)
-        return img == 2
+        # the 8-connected cells of the start's own kind (blocked or not) joined to it
+        same = blocked == blocked[sc[1], sc[0]]
+        labels = components8(same)
+        return labels == labels[sc[1], sc[0]]
     # Breadth-first from the start through the shallow cells, one ring of 8-neighbours per
     # step; the frontier is a set (each cell once), so the work is that of the cells opened.
     shallow = (blocked & (depth <= depth0 + 1e-6)).ravel()
