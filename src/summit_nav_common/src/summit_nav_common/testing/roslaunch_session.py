@@ -56,11 +56,44 @@ def stop_process_tree(proc, grace=20.0):
         pass
 
 
-def cpu_seconds(pid):
-    """utime + stime [s] of a process, from /proc/<pid>/stat."""
-    with open(f"/proc/{pid}/stat") as f:
+def cpu_seconds(pid, tid=None):
+    """utime + stime [s] of a process (or of its thread tid), from /proc."""
+    path = f"/proc/{pid}/stat" if tid is None else f"/proc/{pid}/task/{tid}/stat"
+    with open(path) as f:
         fields = f.read().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def thread_cpu(pid):
+    """{tid: CPU s} of every thread of the process."""
+    out = {}
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        try:
+            out[int(tid)] = cpu_seconds(pid, tid)
+        except OSError:   # the thread ended meanwhile
+            pass
+    return out
+
+
+def peak_rss_mb(pid):
+    """The process's peak resident memory (VmHWM) [MB]; nan when /proc has none."""
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def find_node_pid(launch_pid, name):
+    """PID of the ROS node `name` (its __name:= argument) below the process launch_pid
+    (a roslaunch), or None."""
+    for p in psutil.Process(launch_pid).children(recursive=True):
+        try:
+            if f"__name:={name}" in p.cmdline():
+                return p.pid
+        except psutil.NoSuchProcess:
+            continue
+    return None
 
 
 def check_node_args(node, setup):
