@@ -47,18 +47,17 @@ import time
 import numpy as np
 import yaml
 
+from summit_nav_common.map_io import load_map
+from summit_xl_sim.sim import Simulation
+from summit_xl_sim.tour import TourParams, tour_command
+from summit_xl_sim.world import World
+
+from my_summit_localization.amcl_config import AmclConfig
+from my_summit_localization.motion_model import wrap_angle
+from my_summit_localization.particle_filter import ParticleFilter
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(PKG, "src"))
-
-from summit_nav_common.map_io import load_map  # noqa: E402
-from summit_xl_sim.sim import Simulation  # noqa: E402
-from summit_xl_sim.tour import TourParams, tour_command  # noqa: E402
-from summit_xl_sim.world import World, WorldError  # noqa: E402
-
-from my_summit_localization.amcl_config import AmclConfig  # noqa: E402
-from my_summit_localization.motion_model import wrap_angle  # noqa: E402
-from my_summit_localization.particle_filter import ParticleFilter  # noqa: E402
 
 SIM_PKG = os.path.join(os.path.dirname(PKG), "summit_xl_sim")
 BUILTIN = os.path.join(SIM_PKG, "worlds", "course_building.yaml")

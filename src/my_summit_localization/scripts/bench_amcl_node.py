@@ -16,7 +16,7 @@ laser_max_beams 60, scans at 40 Hz) on a private ROS master. From simulated time
   clouds          particle clouds received (only with --cloud: a subscriber as rviz)
   threads         CPU seconds of each of amcl's threads in the window (with --profile:
                   named by the topic whose receive loop it runs)
-With --profile DIR, amcl runs under tools/profile_node.py (cProfile in every receive
+With --profile DIR, amcl runs under summit_nav_common.testing.profile_node (cProfile in every receive
 thread, CPU clock) and DIR/amcl_run<i>.pstats holds the profile; the top functions by
 cumulative and by own time are printed, and the shares of the profiled CPU of each
 stage (PROFILE_STAGES: filter update, pose estimate, publishing, the rest of the scan
@@ -40,11 +40,9 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-import profile_node  # noqa: E402  (where a profile's time goes)
-import roslaunch_session  # noqa: E402
+from summit_nav_common.testing import profile_node, roslaunch_session
+from summit_nav_common.testing.roslaunch_session import cpu_seconds, find_node_pid, peak_rss_mb, thread_cpu
+
 
 TARGET_CPU_PER_SIM_S = 0.12   # [CPU s / simulated s]; the real amcl: 0.087
 REAL_AMCL_CPU_PER_SIM_S = 0.087
@@ -52,7 +50,6 @@ SCAN_TOPIC = "/hokuyo_base/scan"
 MAP_IN_WORLD = (2.0, 7.0, 0.0)  # amcl.launch's map_in_world_* (the spawn pose of my_map)
 SETTLE = 5.0                    # [s sim] errors counted after this long in the window
 START_TIMEOUT = 120.0           # [s wall] for amcl's first pose
-CLK_TCK = os.sysconf("SC_CLK_TCK")
 
 LAUNCH = """<launch>
   <include file="$(find summit_xl_sim)/launch/tour.launch">
@@ -63,44 +60,6 @@ LAUNCH = """<launch>
   </include>
 </launch>
 """
-
-
-def proc_cpu_s(pid, tid=None):
-    """utime + stime [s] of a process (or of one of its threads) from /proc."""
-    path = f"/proc/{pid}/stat" if tid is None else f"/proc/{pid}/task/{tid}/stat"
-    with open(path) as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK
-
-
-def thread_cpu(pid):
-    """{tid: CPU s} of every thread of the process."""
-    out = {}
-    for tid in os.listdir(f"/proc/{pid}/task"):
-        try:
-            out[int(tid)] = proc_cpu_s(pid, tid)
-        except OSError:
-            pass
-    return out
-
-
-def peak_rss_mb(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024.0
-    return float("nan")
-
-
-def find_node_pid(launch_pid, name):
-    import psutil
-    for p in psutil.Process(launch_pid).children(recursive=True):
-        try:
-            if f"__name:={name}" in p.cmdline():
-                return p.pid
-        except psutil.NoSuchProcess:
-            continue
-    return None
 
 
 class Recorder:
@@ -171,7 +130,7 @@ class Recorder:
 
 def run_once(index, args, tmp):
     import rospy
-    from roslaunch_session import RoslaunchSession, wait_for, wait_for_sim_time_param
+    from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for, wait_for_sim_time_param
     prefix = ""
     out_prefix = None
     if args.profile:
@@ -194,12 +153,12 @@ def run_once(index, args, tmp):
         if pid is None:
             raise RuntimeError(f"amcl's process not found; see {log}")
         load0 = os.getloadavg()
-        sim0, cpu0, thr0 = rospy.Time.now().to_sec(), proc_cpu_s(pid), thread_cpu(pid)
+        sim0, cpu0, thr0 = rospy.Time.now().to_sec(), cpu_seconds(pid), thread_cpu(pid)
         wall0 = time.monotonic()
         wait_for(lambda: rospy.Time.now().to_sec() >= sim0 + args.sim_time,
                  args.sim_time / max(args.speed, 0.05) * 4 + 60, f"{args.sim_time} s of simulated time",
                  session)
-        sim1, cpu1, thr1 = rospy.Time.now().to_sec(), proc_cpu_s(pid), thread_cpu(pid)
+        sim1, cpu1, thr1 = rospy.Time.now().to_sec(), cpu_seconds(pid), thread_cpu(pid)
         wall1 = time.monotonic()
         rss = peak_rss_mb(pid)
         load1 = os.getloadavg()
@@ -261,7 +220,7 @@ def main():
                     help="simulated time the window starts [s] (or amcl's first pose, if later)")
     ap.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
     ap.add_argument("--json", help="write the results here")
-    ap.add_argument("--profile", metavar="DIR", help="run amcl under tools/profile_node.py, profiles in DIR")
+    ap.add_argument("--profile", metavar="DIR", help="run amcl under summit_nav_common.testing.profile_node, profiles in DIR")
     ap.add_argument("--cloud", action="store_true",
                     help="subscribe to particlecloud, as rviz does (amcl builds it at gui_publish_rate)")
     ap.add_argument("--launch-arg", action="append", default=[], help="extra name:=value for the launch")

@@ -11,14 +11,13 @@ converged; ground truth in green, the estimate in red.
 import argparse
 import math
 import os
-import sys
 
 import cv2
 import numpy as np
 
+import bench_amcl_core as bench  # a sibling script: its driver, spawn and filter helpers
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
-import bench_amcl_core as bench  # noqa: E402  (its driver, spawn and filter helpers)
 
 SCALE = 2          # image pixels per map cell
 PANEL_AT = (0.0, 0.15)  # driven distance [m] of the first two panels; the third = converged

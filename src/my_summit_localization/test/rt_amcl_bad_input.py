@@ -28,9 +28,9 @@ from summit_nav_common.map_io import load_map
 from my_summit_localization.srv import MyServiceMessage
 from summit_nav_common.ros.map_msgs import grid_to_msg
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from loctest_util import (Latest, RosoutWatcher, map_in_world, pose_error, sleep_sim,  # noqa: E402
-                          truth_in_map, wait_clock, wait_for, yaw_of)
+from summit_nav_common.geometry import quaternion_to_yaw as yaw_of
+from summit_nav_common.testing.ground_truth import map_in_world, pose_error, truth_in_map
+from summit_nav_common.testing.waits import Latest, RosoutWatcher, sleep_sim, wait_clock, wait_for
 
 POS_TOL = 0.15             # [m] amcl vs ground truth while nothing disturbs it
 YAW_TOL = math.radians(5)  # [rad]

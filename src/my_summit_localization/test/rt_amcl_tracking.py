@@ -20,9 +20,9 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool
 from tf2_msgs.msg import TFMessage
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from loctest_util import (Latest, map_in_world, pose_error, sleep_sim, truth_in_map,  # noqa: E402
-                          wait_clock, wait_for, yaw_of)
+from summit_nav_common.geometry import quaternion_to_yaw as yaw_of
+from summit_nav_common.testing.ground_truth import map_in_world, pose_error, truth_in_map
+from summit_nav_common.testing.waits import Latest, sleep_sim, wait_clock, wait_for
 
 SETTLE = 5.0          # [s] sim: errors counted after this
 SAMPLE = 0.1          # [s] sim: sampling period

@@ -26,9 +26,9 @@ from summit_xl_sim.srv import SetRobotPose
 from my_summit_localization.spots import load_spots
 from my_summit_localization.srv import MyServiceMessage
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from loctest_util import (Latest, compose, map_in_world, pose_error, sleep_sim,  # noqa: E402
-                          spawn_in_world, truth_in_map, wait_clock)
+from summit_nav_common.geometry import compose
+from summit_nav_common.testing.ground_truth import map_in_world, pose_error, spawn_in_world, truth_in_map
+from summit_nav_common.testing.waits import Latest, sleep_sim, wait_clock
 
 POS_TOL = 0.10              # [m] saved spot vs ground truth
 YAW_TOL = math.radians(3)   # [rad]
