@@ -208,3 +208,15 @@ def test_covariance_stays_symmetric_positive_definite():
     assert_allclose(f.P, f.P.T, atol=0)
     assert np.linalg.eigvalsh(f.P).min() > 0
     assert f.x[VX] == pytest.approx(1.0, abs=0.1)
+
+
+def test_fast_step_matches_the_reference():
+    """predict_step (scalar arithmetic, the filter's) against predict_state and
+    predict_jacobian (the obvious matrix form) on random 3D states."""
+    rng = np.random.default_rng(11)
+    j = np.eye(STATE_SIZE)
+    for _ in range(50):
+        x = rng.normal(0.0, 0.8, STATE_SIZE)
+        dt = rng.uniform(0.001, 0.3)
+        assert_allclose(ekf.predict_step(x, dt, j), ekf.predict_state(x, dt), atol=1e-12)
+        assert_allclose(j, ekf.predict_jacobian(x, dt), atol=1e-12)

@@ -40,6 +40,8 @@ TWO_D_FIXED = (Z, ROLL, PITCH, VZ, VROLL, VPITCH, AZ)
 MIN_VARIANCE = 1e-9        # a measurement variance below this is raised to it (a zero would make S singular)
 TWO_D_VARIANCE = 1e-9      # variance the 2D-fixed variables keep
 MAX_DT = 3600.0            # [s] a longer step is taken for a clock jump and not predicted over
+TWO_PI = 2.0 * math.pi
+IDENTITY = np.eye(STATE_SIZE)
 
 
 def wrap(a):
@@ -114,6 +116,53 @@ def predict_jacobian(x, dt):
     return j
 
 
+def predict_step(x, dt, j):
+    """predict_state(x, dt) and predict_jacobian(x, dt) at once, the fast way: scalar
+    arithmetic, the Jacobian written into j (a (15, 15) identity on entry, reset here).
+    predict_state / predict_jacobian are its slow, obvious reference (the tests' oracle).
+    Returns the new state."""
+    (px, py, pz, r, p, y, vx, vy, vz, wr, wp, wy, ax, ay, az) = x.tolist()
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    half = 0.5 * dt * dt
+    dx, dy, dz = vx * dt + ax * half, vy * dt + ay * half, vz * dt + az * half   # body displacement [m]
+    r00, r01, r02 = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    r10, r11, r12 = sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr
+    r20, r21, r22 = -sp, cp * sr, cp * cr
+    tp, sec = sp / cp, 1.0 / cp
+    out = x.copy()
+    out[0] = px + r00 * dx + r01 * dy + r02 * dz
+    out[1] = py + r10 * dx + r11 * dy + r12 * dz
+    out[2] = pz + r20 * dx + r21 * dy + r22 * dz
+    droll = (wr + sr * tp * wp + cr * tp * wy) * dt
+    dpitch = (cr * wp - sr * wy) * dt
+    dyaw = (sr * sec * wp + cr * sec * wy) * dt
+    out[3] = (r + droll + math.pi) % TWO_PI - math.pi
+    out[4] = (p + dpitch + math.pi) % TWO_PI - math.pi
+    out[5] = (y + dyaw + math.pi) % TWO_PI - math.pi
+    out[6], out[7], out[8] = vx + ax * dt, vy + ay * dt, vz + az * dt
+    j[...] = IDENTITY
+    j[0:3, 6:9] = ((r00 * dt, r01 * dt, r02 * dt), (r10 * dt, r11 * dt, r12 * dt), (r20 * dt, r21 * dt, r22 * dt))
+    j[0:3, 12:15] = ((r00 * half, r01 * half, r02 * half), (r10 * half, r11 * half, r12 * half),
+                     (r20 * half, r21 * half, r22 * half))
+    # d position / d (roll, pitch, yaw): dR/d angle times the displacement
+    j[0, 3] = (cy * sp * cr + sy * sr) * dy + (-cy * sp * sr + sy * cr) * dz
+    j[1, 3] = (sy * sp * cr - cy * sr) * dy + (-sy * sp * sr - cy * cr) * dz
+    j[2, 3] = cp * cr * dy - cp * sr * dz
+    j[0, 4] = -cy * sp * dx + cy * cp * sr * dy + cy * cp * cr * dz
+    j[1, 4] = -sy * sp * dx + sy * cp * sr * dy + sy * cp * cr * dz
+    j[2, 4] = -cp * dx - sp * sr * dy - sp * cr * dz
+    j[0, 5] = -r10 * dx - r11 * dy - r12 * dz
+    j[1, 5] = r00 * dx + r01 * dy + r02 * dz
+    j[3:6, 9:12] = ((dt, sr * tp * dt, cr * tp * dt), (0.0, cr * dt, -sr * dt), (0.0, sr * sec * dt, cr * sec * dt))
+    j[3, 3] += (cr * tp * wp - sr * tp * wy) * dt
+    j[4, 3] = (-sr * wp - cr * wy) * dt
+    j[5, 3] = (cr * sec * wp - sr * sec * wy) * dt
+    j[3, 4] = (sr * sec * sec * wp + cr * sec * sec * wy) * dt
+    j[5, 4] = (sr * sec * tp * wp + cr * sec * tp * wy) * dt
+    j[6, 12] = j[7, 13] = j[8, 14] = dt
+    return out
+
+
 @dataclass
 class Measurement:
     """A measurement of some state variables.
@@ -151,6 +200,15 @@ class Ekf:
         self.q = np.array(process_noise, dtype=np.float64).reshape(STATE_SIZE, STATE_SIZE)
         self.p0 = np.array(initial_covariance, dtype=np.float64).reshape(STATE_SIZE, STATE_SIZE)
         self.two_d_mode = bool(two_d_mode)
+        self._j = np.eye(STATE_SIZE)          # the step's Jacobian, reused
+        free = np.ones(STATE_SIZE, dtype=bool)
+        if self.two_d_mode:
+            free[list(TWO_D_FIXED)] = False
+        self._free = free                     # the variables a measurement may update
+        self._fixed = np.flatnonzero(~free)
+        self._fixed_diag = np.zeros((STATE_SIZE, STATE_SIZE))
+        self._fixed_diag[self._fixed, self._fixed] = TWO_D_VARIANCE
+        self._free_2d = np.outer(free, free)
         self.reset()
 
     def reset(self, state=None, covariance=None, stamp=None):
@@ -166,10 +224,11 @@ class Ekf:
         """Moves the state on by dt [s] (dt <= 0: nothing)."""
         if not dt > 0.0:
             return
-        j = predict_jacobian(self.x, dt)
-        x = predict_state(self.x, dt)
-        p = j @ self.P @ j.T + self.q * dt
-        if np.all(np.isfinite(x)) and np.all(np.isfinite(p)):   # never let a NaN in
+        j = self._j
+        x = predict_step(self.x, dt, j)
+        p = j @ self.P @ j.T
+        p += self.q * dt
+        if math.isfinite(x.sum() + p.sum()):   # never let a NaN in
             self.x, self.P = x, _symmetric(p)
         self._force_two_d()
 
@@ -207,12 +266,8 @@ class Ekf:
     def usable_indices(self, m: Measurement):
         """The state indices m measures whose values and variances are finite, without the
         2D-fixed ones in two_d_mode."""
-        mask = np.asarray(m.mask, dtype=bool).copy()
-        if self.two_d_mode:
-            mask[list(TWO_D_FIXED)] = False
-        diag = np.diagonal(m.cov)
-        mask &= np.isfinite(m.z) & np.isfinite(diag)
-        return [int(i) for i in np.flatnonzero(mask)]
+        mask = m.mask & self._free & np.isfinite(m.z) & np.isfinite(np.diagonal(m.cov))
+        return np.flatnonzero(mask).tolist()
 
     def correct(self, m: Measurement, idx=None) -> Outcome:
         """The EKF correction with m's masked variables (no prediction)."""
@@ -222,12 +277,12 @@ class Ekf:
             return Outcome(False, "nothing to fuse (masked variables absent or not finite)")
         idx = list(idx)
         r = _measurement_covariance(m.cov[np.ix_(idx, idx)])
-        if not np.all(np.isfinite(r)):
+        if not math.isfinite(r.sum()):
             return Outcome(False, "covariance not finite", None, tuple(idx))
         innovation = m.z[idx] - self.x[idx]
         for k, i in enumerate(idx):
-            if i in ANGLES:
-                innovation[k] = wrap(innovation[k])
+            if 3 <= i <= 5:   # roll, pitch, yaw
+                innovation[k] = (innovation[k] + math.pi) % TWO_PI - math.pi
         ph = self.P[:, idx]                       # P H^T
         s = ph[idx, :] + r                        # H P H^T + R
         try:
@@ -242,11 +297,12 @@ class Ekf:
                            d2, tuple(idx))
         k = ph @ s_inv                             # (15, n)
         x = self.x + k @ innovation
-        x[list(ANGLES)] = wrap(x[list(ANGLES)])
-        ikh = np.eye(STATE_SIZE)
+        x[3:6] = (x[3:6] + math.pi) % TWO_PI - math.pi
+        ikh = IDENTITY.copy()
         ikh[:, idx] -= k
-        p = ikh @ self.P @ ikh.T + k @ r @ k.T
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(p))):
+        p = ikh @ self.P @ ikh.T
+        p += k @ r @ k.T
+        if not math.isfinite(x.sum() + p.sum()):
             return Outcome(False, "update not finite", d2, tuple(idx))
         self.x, self.P = x, _symmetric(p)
         self._force_two_d()
@@ -255,11 +311,9 @@ class Ekf:
     def _force_two_d(self):
         if not self.two_d_mode:
             return
-        fixed = list(TWO_D_FIXED)
-        self.x[fixed] = 0.0
-        self.P[fixed, :] = 0.0
-        self.P[:, fixed] = 0.0
-        self.P[fixed, fixed] = TWO_D_VARIANCE
+        self.x[self._fixed] = 0.0
+        self.P *= self._free_2d          # rows and columns of the fixed variables to 0 ...
+        self.P += self._fixed_diag       # ... and their variances to TWO_D_VARIANCE
 
 
 def _measurement_covariance(r):
