@@ -1,14 +1,11 @@
 """tools/bench_report.py without ROS: rows from section results, the store's merge, the
 rendered page and the README's table, from small hand-made stores."""
 import json
-import os
 import subprocess
-import sys
 
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
-import bench_report  # noqa: E402
+import bench_report  # tools/ (tests/pytest.ini's pythonpath)
 
 MACHINE = {"cores": 2, "cpu_model": "Test CPU 3000", "python": "3.11.2"}
 LOAD = {"mean_1min": 1.5, "max_1min": 2.25, "start": [1.0, 0.5, 0.25], "end": [2.0, 1.0, 0.5],
@@ -383,3 +380,21 @@ def test_planning_peer_section_names_the_executable_its_failed_pairs_and_how_to_
                                                                  [make_record("planning_peer", res, "ddddddd")]))
     assert any(line.startswith("| move_base (/tmp/peers_ws/devel/lib/move_base/move_base) live") and
                "| 80% / 0 / 1.60 (-) | - | - | `ddddddd` |" in line for line in readme)   # its headline row
+
+
+def test_planning_core_json_keys_are_the_ones_the_page_reads():
+    import bench_planning_core as bench   # my_summit_path_planning's script (pythonpath)
+    keys = set()
+    for world, _ in bench.WORLDS:
+        for g in bench.GLOBAL_PLANNERS:
+            for loc in bench.LOCAL_PLANNERS:
+                key = bench.combination_key(world, g, loc)
+                assert key == bench_report.closed_loop_key(world, g, loc)
+                keys.add(key)
+    assert len(keys) == 2 * 3 * 3
+    assert bench.combination_key("builtin", "navfn", "dwa") == "closed_loop_builtin"
+    assert bench.combination_key("willow", "navfn", "dwa") == "closed_loop_willow"
+    assert bench.combination_key("builtin", "navfn", "trajectory") == "closed_loop_builtin_trajectory"
+    assert [w for w, _ in bench.WORLDS] == list(bench_report.CLOSED_WORLDS)
+    assert list(bench.GLOBAL_PLANNERS) == list(bench_report.CLOSED_GLOBAL)
+    assert list(bench.LOCAL_PLANNERS) == list(bench_report.CLOSED_LOCAL)

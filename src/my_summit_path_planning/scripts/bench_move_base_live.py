@@ -48,15 +48,13 @@ import sys
 import threading
 import time
 
+import bench_planning_core as core  # a sibling script: the pairs, the planner kinds, the time limit
+from summit_nav_common.files import write_atomic
+from summit_nav_common.geometry import quaternion_to_yaw
+from summit_nav_common.testing.roslaunch_session import check_node_args, child_result, exit_on_sigterm, print_result
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-sys.path.insert(0, HERE)
-
-import bench_planning_core as core  # noqa: E402  (the pairs, the planner kinds, the time limit)
-from roslaunch_session import check_node_args, child_result, exit_on_sigterm, print_result  # noqa: E402
-from summit_nav_common.files import write_atomic  # noqa: E402
-from summit_nav_common.geometry import quaternion_to_yaw  # noqa: E402
 
 NODE = os.path.normpath(os.path.join(HERE, "..", "nodes", "move_base"))
 NODE_NAME = "move_base"
@@ -237,8 +235,8 @@ class Recorder:
 def run_pair(world_yaml, pair, k, global_kind, local_kind, rule, out, speed=1.0, node=None, node_setup=None):
     """Pair number k (1-based) live: launch, move_base, one goal (module docstring); the
     judged record (judge)."""
-    from roslaunch_session import RoslaunchSession, Watched, cpu_seconds, sourced_env, stop_process_tree, \
-        wait_for, wait_for_sim_time_param
+    from summit_nav_common.testing.roslaunch_session import (RoslaunchSession, Watched, cpu_seconds, sourced_env,
+                                                             stop_process_tree, wait_for, wait_for_sim_time_param)
     from my_summit_path_planning.nav_core import namespace_of
     (sx, sy, syaw), (gx, gy, gyaw) = pair["start"], pair["goal"]
     limit = time_limit(pair["geodesic_m"], rule["max_vel_x"])

@@ -56,23 +56,21 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "tools"))   # the workspace's tools/ (bench_report)
-
-from my_summit_path_planning import cost_values as cv  # noqa: E402
-from my_summit_path_planning.dwa import DWAPlanner  # noqa: E402
-from my_summit_path_planning.global_planner import GlobalPlanner, GlobalPlannerConfig  # noqa: E402
-from my_summit_path_planning.layers import (ObstacleLayer, StaticLayer, scan_to_observation,  # noqa: E402
+from my_summit_path_planning import cost_values as cv
+from my_summit_path_planning.dwa import DWAPlanner
+from my_summit_path_planning.global_planner import GlobalPlanner, GlobalPlannerConfig
+from my_summit_path_planning.layers import (ObstacleLayer, StaticLayer, scan_to_observation,
                                             source_observation)
-from my_summit_path_planning.move_base_core import (INFO, INVALID_GOAL, GoalError, MoveBaseCore,  # noqa: E402
+from my_summit_path_planning.move_base_core import (INFO, INVALID_GOAL, GoalError, MoveBaseCore,
                                                     accept_goal)
-from my_summit_path_planning.nav_core import namespace_of  # noqa: E402
-from my_summit_path_planning.navfn import NavFn, grid_geodesic_length  # noqa: E402
-from my_summit_path_planning.params import build_costmap, load_move_base_params  # noqa: E402
-from my_summit_path_planning.plugins import MoveBasePlugins  # noqa: E402
-from summit_nav_common.geometry import angle_diff  # noqa: E402
-from bench_report import git_commit  # noqa: E402  (the commit stamp of the benchmark page)
+from my_summit_path_planning.nav_core import namespace_of
+from my_summit_path_planning.navfn import NavFn, grid_geodesic_length
+from my_summit_path_planning.params import build_costmap, load_move_base_params
+from my_summit_path_planning.plugins import MoveBasePlugins
+from summit_nav_common.geometry import angle_diff
+from summit_nav_common.testing.provenance import git_commit  # the commit stamp of the benchmark page
+
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 CONFIG = os.path.join(HERE, "..", "config")
 WS_SRC = os.path.abspath(os.path.join(HERE, "..", ".."))

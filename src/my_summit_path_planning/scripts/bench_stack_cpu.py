@@ -21,8 +21,8 @@ the last goal's end, "while navigating":
                   cheaper node that drives worse shows
   threads         move_base's CPU seconds per thread in the window (costmaps, planner,
                   control loop, receive threads by topic with --profile)
-With --profile DIR, move_base runs under tools/profile_node.py --all-threads (cProfile in
-every thread, CPU clock); DIR/move_base_run<i>.pstats holds the profile, and the share
+With --profile DIR, move_base runs under summit_nav_common.testing.profile_node
+--all-threads (cProfile in every thread, CPU clock); DIR/move_base_run<i>.pstats holds the profile, and the share
 of the profiled CPU of each stage (PROFILE_STAGES: costmap layers, laser tf and scan
 conversion, costmap publishing, NavFn, DWA's distance fields / rollouts / scoring, the
 control loop's tf and messages, receiving messages) goes to the JSON as profile_shares.
@@ -45,12 +45,10 @@ import time
 
 import numpy as np
 
+from summit_nav_common.testing import profile_node, roslaunch_session
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-sys.path.insert(0, os.path.join(WS, "src", "my_summit_localization", "scripts"))
-import profile_node  # noqa: E402  (where a profile's time goes)
-import roslaunch_session  # noqa: E402
 
 TARGET_SUM_CPU_PER_SIM_S = 0.6           # issue 24: map_server + amcl + move_base while navigating
 REAL_CPU_PER_SIM_S = {"amcl": 0.094, "move_base": 0.41, "sum": 0.50}   # issue 24's C++ reference
@@ -91,8 +89,9 @@ def draw_goals(n, seed):
 
 def run_once(index, args, tmp):
     import rospy
-    from bench_amcl_node import find_node_pid, peak_rss_mb, proc_cpu_s, thread_cpu
-    from roslaunch_session import RoslaunchSession, wait_for, wait_for_sim_time_param
+    from summit_nav_common.testing.roslaunch_session import (RoslaunchSession, cpu_seconds, find_node_pid,
+                                                             peak_rss_mb, thread_cpu, wait_for,
+                                                             wait_for_sim_time_param)
     prefix = ""
     out_prefix = None
     if args.profile:
@@ -105,34 +104,32 @@ def run_once(index, args, tmp):
     with RoslaunchSession(launch, log=log) as session:
         wait_for_sim_time_param(session)
         rospy.init_node("bench_stack_cpu", anonymous=True, disable_signals=True)
-        sys.path.insert(0, os.path.join(WS, "src", "my_summit_path_planning", "test"))
-        import mbtest_util as mt
         from geometry_msgs.msg import PoseWithCovarianceStamped
-        from mbtest_util import lu
-        first_pose = lu.Latest("/amcl_pose", PoseWithCovarianceStamped)
-        truth = mt.Truth(lu.spawn_in_world())
+        from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
+        first_pose = waits.Latest("/amcl_pose", PoseWithCovarianceStamped)
+        truth = gt.Truth(gt.spawn_in_world())
         wait_for(lambda: first_pose.msg is not None, START_TIMEOUT, "amcl's first pose", session)
-        client = mt.client()
+        client = mb.client()
         truth.wait()
-        lu.sleep_sim(2.0)  # amcl settles on its first scans
+        waits.sleep_sim(2.0)  # amcl settles on its first scans
         pids = {name: find_node_pid(session.proc.pid, name) for name in NODES + (SIM_NODE,)}
         missing = [n for n, p in pids.items() if p is None]
         if missing:
             raise RuntimeError(f"process of {missing} not found; see {log}")
         load0 = os.getloadavg()
         sim0 = rospy.Time.now().to_sec()
-        cpu0 = {n: proc_cpu_s(p) for n, p in pids.items()}
+        cpu0 = {n: cpu_seconds(p) for n, p in pids.items()}
         thr0 = thread_cpu(pids["move_base"])
         wall0 = time.monotonic()
         results = []
         for i, goal in enumerate(goals):
             t0 = rospy.Time.now().to_sec()
-            client.send_goal(mt.make_goal(*goal))
+            client.send_goal(mb.make_goal(*goal))
             try:
-                state, text = mt.wait_result(client, GOAL_TIMEOUT, timeout_wall=GOAL_TIMEOUT / args.speed * 4 + 60)
+                state, text = mb.wait_result(client, GOAL_TIMEOUT, timeout_wall=GOAL_TIMEOUT / args.speed * 4 + 60)
             except AssertionError as e:   # did not end in time: cancel it, go on with the next
                 client.cancel_goal()
-                lu.sleep_sim(1.0)
+                waits.sleep_sim(1.0)
                 state, text = "TIMEOUT", str(e)
             pose = truth.pose
             err = math.hypot(pose[0] - goal[0], pose[1] - goal[1])
@@ -142,7 +139,7 @@ def run_once(index, args, tmp):
                   f"{results[-1]['sim_s']} s sim, {err:.3f} m from it by ground truth; collisions so far "
                   f"{truth.collisions}", flush=True)
         sim1 = rospy.Time.now().to_sec()
-        cpu1 = {n: proc_cpu_s(p) for n, p in pids.items()}
+        cpu1 = {n: cpu_seconds(p) for n, p in pids.items()}
         thr1 = thread_cpu(pids["move_base"])
         wall1 = time.monotonic()
         rss = {n: peak_rss_mb(p) for n, p in pids.items()}
@@ -215,7 +212,7 @@ def main():
     ap.add_argument("--seed", type=int, default=0, help="seed of the goals and of the simulator's noise")
     ap.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
     ap.add_argument("--json", help="write the results here")
-    ap.add_argument("--profile", metavar="DIR", help="run move_base under tools/profile_node.py, profiles in DIR")
+    ap.add_argument("--profile", metavar="DIR", help="run move_base under summit_nav_common.testing.profile_node, profiles in DIR")
     ap.add_argument("--print-goals", action="store_true", help="print the goals and exit")
     ap.add_argument("--run-index", type=int, help=argparse.SUPPRESS)   # one run, in a child process
     args = ap.parse_args()

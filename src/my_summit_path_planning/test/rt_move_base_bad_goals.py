@@ -27,9 +27,7 @@ from rospy.numpy_msg import numpy_msg
 from summit_nav_common.ros.map_msgs import grid_to_msg
 from summit_nav_common.map_io import load_map
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import move_base_client as mb, waits
 
 ROOM = (14.0, -3.5)   # [m] the fetch room's centre in the map frame
 WALL_NEAR = (10.0, -1.0)   # [m] near the hall / fetch room wall (world x = 12)
@@ -47,29 +45,29 @@ def occupied_cell_near(grid, x, y):
 class MoveBaseBadGoals(unittest.TestCase):
     def test_no_map_bad_goals_services(self):
         rospy.init_node("move_base_bad_goals_test")
-        rosout = lu.RosoutWatcher()
-        lu.wait_clock()
+        rosout = waits.RosoutWatcher()
+        waits.wait_clock()
         static = tf2_ros.StaticTransformBroadcaster()
         t = TransformStamped()
         t.header.stamp = rospy.Time.now()
         t.header.frame_id, t.child_frame_id = "map", "odom"
         t.transform.rotation.w = 1.0
         static.sendTransform(t)
-        c = mt.client()
+        c = mb.client()
 
         # 1. no map yet: the goal waits and move_base says so
         fb = []
-        c.send_goal(mt.make_goal(*ROOM), feedback_cb=fb.append)
+        c.send_goal(mb.make_goal(*ROOM), feedback_cb=fb.append)
         rosout.wait("move_base", "waiting for the map")
-        lu.sleep_sim(1.0)
-        self.assertEqual(mt.state_name(c), "ACTIVE")
+        waits.sleep_sim(1.0)
+        self.assertEqual(mb.state_name(c), "ACTIVE")
         grid = load_map(rospy.get_param("~map_file"))
         map_pub = rospy.Publisher("/map", numpy_msg(OccupancyGrid), queue_size=1, latch=True)
         map_pub.publish(grid_to_msg(grid, "map", rospy.Time.now(), numpy_msg(OccupancyGrid)))
         self.assertEqual(len(fb), 0)
-        lu.wait_for(lambda: len(fb) > 5, "feedback once the map is there", 60.0)
+        waits.wait_for(lambda: len(fb) > 5, "feedback once the map is there", 60.0)
         c.cancel_goal()
-        state, text = mt.wait_result(c, 10.0)
+        state, text = mb.wait_result(c, 10.0)
         self.assertEqual(state, "PREEMPTED", text)
         self.assertIn("canceled", text)
 
@@ -77,19 +75,19 @@ class MoveBaseBadGoals(unittest.TestCase):
         wall = occupied_cell_near(grid, *WALL_NEAR)
         nan = float("nan")
         cases = [
-            ("wall", mt.make_goal(*wall), "obstacle"),
-            ("off map", mt.make_goal(50.0, 50.0), "off the map"),
-            ("unknown space", mt.make_goal(-2.7, 0.0), "unknown space"),
-            ("NaN", mt.make_goal(nan, 1.0), "NaN"),
-            ("non-unit quaternion", mt.make_goal(1.0, 0.0, q=(0.0, 0.0, 0.0, 0.5)), "unit quaternion"),
-            ("tilted quaternion", mt.make_goal(1.0, 0.0, q=(0.7071068, 0.0, 0.0, 0.7071068)), "rotation about z"),
-            ("unknown frame", mt.make_goal(1.0, 0.0, frame="nowhere"), "cannot transform"),
+            ("wall", mb.make_goal(*wall), "obstacle"),
+            ("off map", mb.make_goal(50.0, 50.0), "off the map"),
+            ("unknown space", mb.make_goal(-2.7, 0.0), "unknown space"),
+            ("NaN", mb.make_goal(nan, 1.0), "NaN"),
+            ("non-unit quaternion", mb.make_goal(1.0, 0.0, q=(0.0, 0.0, 0.0, 0.5)), "unit quaternion"),
+            ("tilted quaternion", mb.make_goal(1.0, 0.0, q=(0.7071068, 0.0, 0.0, 0.7071068)), "rotation about z"),
+            ("unknown frame", mb.make_goal(1.0, 0.0, frame="nowhere"), "cannot transform"),
         ]
         for name, goal, reason in cases:
             t0 = rospy.Time.now()
             fb = []
             c.send_goal(goal, feedback_cb=fb.append)
-            state, text = mt.wait_result(c, 30.0)
+            state, text = mb.wait_result(c, 30.0)
             took = (rospy.Time.now() - t0).to_sec()
             print(f"BAD_GOAL {name}: {state} after {took:.2f} s sim, {len(fb)} feedback: {text}")
             self.assertEqual(state, "ABORTED", f"{name}: {text}")
@@ -98,7 +96,7 @@ class MoveBaseBadGoals(unittest.TestCase):
             self.assertEqual(len(fb), 0, f"{name}: pursued for {len(fb)} control cycles before the abort")
 
         # 3. services
-        gcost = lu.Latest("/move_base/global_costmap/costmap", OccupancyGrid)
+        gcost = waits.Latest("/move_base/global_costmap/costmap", OccupancyGrid)
         rospy.wait_for_service("/move_base/make_plan", 30.0)
         make_plan = rospy.ServiceProxy("/move_base/make_plan", GetPlan)
 

@@ -20,9 +20,8 @@ from nav_msgs.msg import Path
 
 from summit_xl_sim.srv import AddBox
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 AMCL_MARGIN = 0.10      # [m]
 AMCL_YAW_MARGIN = 0.05  # [rad]
@@ -49,37 +48,37 @@ class MoveBaseBox(unittest.TestCase):
         max_sim = rospy.get_param("~max_sim_time")
         xy_tol = rospy.get_param("/move_base/DWAPlannerROS/xy_goal_tolerance")
         yaw_tol = rospy.get_param("/move_base/DWAPlannerROS/yaw_goal_tolerance")
-        m_in_w = lu.map_in_world()
-        truth = mt.Truth(m_in_w)
-        plan = lu.Latest("/move_base/NavfnROS/plan", Path)
-        amcl = lu.Latest("/amcl_pose", PoseWithCovarianceStamped)
-        lu.wait_clock()
-        c = mt.client()
+        m_in_w = gt.map_in_world()
+        truth = gt.Truth(m_in_w)
+        plan = waits.Latest("/move_base/NavfnROS/plan", Path)
+        amcl = waits.Latest("/amcl_pose", PoseWithCovarianceStamped)
+        waits.wait_clock()
+        c = mb.client()
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
         add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
         start = truth.wait()
-        lu.sleep_sim(2.0)
+        waits.sleep_sim(2.0)
         t0 = rospy.Time.now()
-        c.send_goal(mt.make_goal(*goal))
-        lu.wait_for(lambda: math.hypot(truth.pose[0] - start[0], truth.pose[1] - start[1]) > after,
-                    "the robot driving", 120.0)
+        c.send_goal(mb.make_goal(*goal))
+        waits.wait_for(lambda: math.hypot(truth.pose[0] - start[0], truth.pose[1] - start[1]) > after,
+                       "the robot driving", 120.0)
         n_plans = plan.count
-        lu.wait_for(lambda: plan.count > n_plans, "a fresh global plan", 30.0)
+        waits.wait_for(lambda: plan.count > n_plans, "a fresh global plan", 30.0)
         path = np.array([(p.pose.position.x, p.pose.position.y) for p in plan.msg.poses])
         robot = truth.pose
         bx, by = point_ahead(path, robot[:2], ahead)
         heading = math.atan2(by - robot[1], bx - robot[0])
-        wx, wy = mt.map_to_world(m_in_w, bx, by)
+        wx, wy = gt.map_to_world(m_in_w, bx, by)
         resp = add_box("box_on_path", Pose2D(wx, wy, heading + m_in_w[2]), size, size)
         self.assertTrue(resp.success, resp.message)
         rospy.loginfo(f"BOX at map ({bx:.2f}, {by:.2f}) = world ({wx:.2f}, {wy:.2f}), robot at ({robot[0]:.2f}, "
                       f"{robot[1]:.2f}), {math.hypot(bx - robot[0], by - robot[1]):.2f} m ahead")
-        state, text = mt.wait_result(c, max_sim)
+        state, text = mb.wait_result(c, max_sim)
         elapsed = (rospy.Time.now() - t0).to_sec()
-        lu.sleep_sim(0.5)
+        waits.sleep_sim(0.5)
         end = truth.pose
         err_xy = math.hypot(end[0] - goal[0], end[1] - goal[1])
-        err_yaw = abs(lu.wrap(end[2] - goal[2]))
+        err_yaw = abs(wrap_angle(end[2] - goal[2]))
         track = np.array([(x, y) for _, x, y in truth.track])
         clearance = float(np.min(np.hypot(track[:, 0] - bx, track[:, 1] - by)))
         # amcl's estimate against the truth: a failure from a lost localization shows here

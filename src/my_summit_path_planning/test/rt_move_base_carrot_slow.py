@@ -22,9 +22,7 @@ from nav_msgs.msg import Path
 
 from summit_xl_sim.srv import AddBox, RemoveBox
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 NS = "/move_base/DWAPlannerROS"
 SPEED_TOL = 0.03        # [m/s] over the limit: the truth's finite differences and one control period
@@ -50,22 +48,22 @@ def speeds(track, window=SPEED_WINDOW):
 
 class MoveBaseCarrotSlow(unittest.TestCase):
     def wait_params(self, trans, rot, what):
-        lu.wait_for(lambda: rospy.get_param(f"{NS}/max_vel_trans") == trans
-                    and rospy.get_param(f"{NS}/max_vel_theta") == rot,
-                    f"{NS} max_vel_trans {trans}, max_vel_theta {rot} ({what})", 60.0)
+        waits.wait_for(lambda: rospy.get_param(f"{NS}/max_vel_trans") == trans
+                       and rospy.get_param(f"{NS}/max_vel_theta") == rot,
+                       f"{NS} max_vel_trans {trans}, max_vel_theta {rot} ({what})", 60.0)
 
     def test_carrot_and_move_slow_and_clear(self):
         rospy.init_node("move_base_carrot_slow_test")
         goal_x = rospy.get_param("~goal_x")
         limited = rospy.get_param("~limited_trans_speed")
         limited_distance = rospy.get_param("~limited_distance")
-        m_in_w = lu.map_in_world()
-        truth = mt.Truth(m_in_w)
+        m_in_w = gt.map_in_world()
+        truth = gt.Truth(m_in_w)
         # ours publishes the carrot's plan as the other planners' (the real carrot_planner
         # publishes none: ~check_plan false when the real move_base runs this test)
-        plan = lu.Latest("/move_base/CarrotPlanner/plan", Path) if rospy.get_param("~check_plan", True) else None
-        lu.wait_clock()
-        c = mt.client()
+        plan = waits.Latest("/move_base/CarrotPlanner/plan", Path) if rospy.get_param("~check_plan", True) else None
+        waits.wait_clock()
+        c = mb.client()
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
         add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
         remove_box = rospy.ServiceProxy("/summit_xl_sim/remove_box", RemoveBox)
@@ -75,10 +73,10 @@ class MoveBaseCarrotSlow(unittest.TestCase):
         goal = (x + goal_x * math.cos(yaw), y + goal_x * math.sin(yaw), yaw)
 
         # 1. boxed in: the recovery runs and limits the speeds, the goal aborts
-        boxes = mt.ring_robot(add_box, (x, y, yaw), m_in_w, 0.7, 0.2)
-        lu.sleep_sim(1.0)   # a few scans of the ring
-        c.send_goal(mt.make_goal(*goal))
-        state, text = mt.wait_result(c, 120.0)
+        boxes = mb.ring_robot(add_box, (x, y, yaw), m_in_w, 0.7, 0.2)
+        waits.sleep_sim(1.0)   # a few scans of the ring
+        c.send_goal(mb.make_goal(*goal))
+        state, text = mb.wait_result(c, 120.0)
         rospy.loginfo(f"MOVE_BASE_CARROT_SLOW boxed: state={state} text={text!r}")
         self.assertEqual(state, "ABORTED", text)
         self.assertIn("Even after executing recovery behaviors", text)
@@ -93,11 +91,11 @@ class MoveBaseCarrotSlow(unittest.TestCase):
         # 2. the ring removed: the goal is reached, slowly for the first metre
         for name in boxes:
             self.assertTrue(remove_box(name).success)
-        lu.sleep_sim(1.0)   # the laser clears the ring's marks
+        waits.sleep_sim(1.0)   # the laser clears the ring's marks
         with truth.lock:
             start = len(truth.track)
-        c.send_goal(mt.make_goal(*goal))
-        state, text = mt.wait_result(c, 120.0)
+        c.send_goal(mb.make_goal(*goal))
+        state, text = mb.wait_result(c, 120.0)
         with truth.lock:
             track = list(truth.track[start:])
             end = truth.pose

@@ -19,9 +19,7 @@ from geometry_msgs.msg import Pose2D, PoseWithCovarianceStamped
 
 from summit_xl_sim.srv import AddBox
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 AMCL_TOL = 0.3      # [m] (holds 0.1; a jump to a look-alike place is metres)
 GOAL_TOL = 0.25     # [m] by ground truth: xy_goal_tolerance 0.1 plus amcl's error
@@ -48,8 +46,8 @@ class MoveBaseCrateStart(unittest.TestCase):
         ahead = rospy.get_param("~crate_ahead")
         goal_ahead = rospy.get_param("~goal_ahead")
         max_sim = rospy.get_param("~max_sim_time")
-        m_in_w = lu.map_in_world()
-        truth = mt.Truth(m_in_w)
+        m_in_w = gt.map_in_world()
+        truth = gt.Truth(m_in_w)
         lock, estimates = threading.Lock(), []
 
         def on_amcl(msg):
@@ -57,20 +55,20 @@ class MoveBaseCrateStart(unittest.TestCase):
             with lock:
                 estimates.append((msg.header.stamp.to_sec(), p.x, p.y))
 
-        lu.wait_clock()
-        c = mt.client()
+        waits.wait_clock()
+        c = mb.client()
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
         add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
         x, y, yaw = truth.wait()
         rospy.Subscriber("/amcl_pose", PoseWithCovarianceStamped, on_amcl, queue_size=10)
-        wx, wy = mt.map_to_world(m_in_w, x + ahead * math.cos(yaw), y + ahead * math.sin(yaw))
+        wx, wy = gt.map_to_world(m_in_w, x + ahead * math.cos(yaw), y + ahead * math.sin(yaw))
         resp = add_box("crate", Pose2D(wx, wy, yaw + m_in_w[2]), 0.2, 2.0)
         self.assertTrue(resp.success, resp.message)
-        lu.sleep_sim(1.0)
+        waits.sleep_sim(1.0)
         goal = (x + goal_ahead * math.cos(yaw), y + goal_ahead * math.sin(yaw), yaw)
-        c.send_goal(mt.make_goal(*goal))
-        state, text = mt.wait_result(c, max_sim)
-        lu.sleep_sim(0.5)
+        c.send_goal(mb.make_goal(*goal))
+        state, text = mb.wait_result(c, max_sim)
+        waits.sleep_sim(0.5)
         end = truth.pose
         err = math.hypot(end[0] - goal[0], end[1] - goal[1])
         with lock, truth.lock:

@@ -9,15 +9,13 @@ robot within the default goal tolerances of the goal by ground truth (xy 0.10 m,
 collisions.
 """
 import math
-import sys
 import unittest
 
 import rospy
 import rostest
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 XY_TOLERANCE = 0.10     # [m] the local planners' default xy_goal_tolerance
 YAW_TOLERANCE = 0.05    # [rad] their default yaw_goal_tolerance
@@ -31,20 +29,20 @@ class MoveBaseDefaults(unittest.TestCase):
         goal = (rospy.get_param("~goal_x"), rospy.get_param("~goal_y"), rospy.get_param("~goal_yaw"))
         max_sim = rospy.get_param("~max_sim_time", 90.0)
         allowed = {"base_local_planner"} if rospy.get_param("~local_planner", "") else set()
-        truth = mt.Truth(lu.map_in_world())
-        lu.wait_clock()
-        c = mt.client()
+        truth = gt.Truth(gt.map_in_world())
+        waits.wait_clock()
+        c = mb.client()
         # move_base's own parameters (its dynamic_reconfigure servers write their namespaces)
         given = {k: v for k, v in rospy.get_param("/move_base", {}).items() if not isinstance(v, dict)}
         self.assertLessEqual(set(given), allowed, f"move_base was given parameters: {given}")
         truth.wait()
-        lu.sleep_sim(2.0)  # amcl settles on its first scans
-        c.send_goal(mt.make_goal(*goal))
-        state, text = mt.wait_result(c, max_sim)
-        lu.sleep_sim(0.5)
+        waits.sleep_sim(2.0)  # amcl settles on its first scans
+        c.send_goal(mb.make_goal(*goal))
+        state, text = mb.wait_result(c, max_sim)
+        waits.sleep_sim(0.5)
         end = truth.pose
         err_xy = math.hypot(end[0] - goal[0], end[1] - goal[1])
-        err_yaw = abs(lu.wrap(end[2] - goal[2]))
+        err_yaw = abs(wrap_angle(end[2] - goal[2]))
         print(f"MOVE_BASE_DEFAULTS state={state} final_xy_error_m={err_xy:.3f} final_yaw_error_rad={err_yaw:.3f} "
               f"collisions={truth.collisions} text={text!r}")
         self.assertEqual(state, "SUCCEEDED", text)

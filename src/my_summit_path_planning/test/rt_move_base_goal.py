@@ -18,9 +18,8 @@ from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Path
 from geometry_msgs.msg import PolygonStamped, PoseStamped
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 AMCL_MARGIN = 0.10      # [m] ground truth vs amcl's estimate, on top of xy_goal_tolerance
 AMCL_YAW_MARGIN = 0.05  # [rad]
@@ -33,30 +32,30 @@ class MoveBaseGoal(unittest.TestCase):
         max_sim = rospy.get_param("~max_sim_time", 90.0)
         xy_tol = rospy.get_param("/move_base/DWAPlannerROS/xy_goal_tolerance")
         yaw_tol = rospy.get_param("/move_base/DWAPlannerROS/yaw_goal_tolerance")
-        m_in_w = lu.map_in_world()
-        truth = mt.Truth(m_in_w)
-        plan = lu.Latest("/move_base/NavfnROS/plan", Path)
-        local_plan = lu.Latest("/move_base/DWAPlannerROS/local_plan", Path)
-        gcost = lu.Latest("/move_base/global_costmap/costmap", OccupancyGrid)
-        gupdates = lu.Latest("/move_base/global_costmap/costmap_updates", OccupancyGridUpdate)
-        lcost = lu.Latest("/move_base/local_costmap/costmap", OccupancyGrid)
-        foot = lu.Latest("/move_base/local_costmap/footprint", PolygonStamped)
-        current_goal = lu.Latest("/move_base/current_goal", PoseStamped)
-        the_map = lu.Latest("/map", OccupancyGrid)
-        lu.wait_clock()
-        c = mt.client()
+        m_in_w = gt.map_in_world()
+        truth = gt.Truth(m_in_w)
+        plan = waits.Latest("/move_base/NavfnROS/plan", Path)
+        local_plan = waits.Latest("/move_base/DWAPlannerROS/local_plan", Path)
+        gcost = waits.Latest("/move_base/global_costmap/costmap", OccupancyGrid)
+        gupdates = waits.Latest("/move_base/global_costmap/costmap_updates", OccupancyGridUpdate)
+        lcost = waits.Latest("/move_base/local_costmap/costmap", OccupancyGrid)
+        foot = waits.Latest("/move_base/local_costmap/footprint", PolygonStamped)
+        current_goal = waits.Latest("/move_base/current_goal", PoseStamped)
+        the_map = waits.Latest("/map", OccupancyGrid)
+        waits.wait_clock()
+        c = mb.client()
         truth.wait()
-        lu.sleep_sim(2.0)  # amcl settles on its first scans
+        waits.sleep_sim(2.0)  # amcl settles on its first scans
         start = truth.pose
         feedback = []
         t0 = rospy.Time.now()
-        c.send_goal(mt.make_goal(*goal), feedback_cb=feedback.append)
-        state, text = mt.wait_result(c, max_sim)
+        c.send_goal(mb.make_goal(*goal), feedback_cb=feedback.append)
+        state, text = mb.wait_result(c, max_sim)
         elapsed = (rospy.Time.now() - t0).to_sec()
-        lu.sleep_sim(0.5)
+        waits.sleep_sim(0.5)
         end = truth.pose
         err_xy = math.hypot(end[0] - goal[0], end[1] - goal[1])
-        err_yaw = abs(lu.wrap(end[2] - goal[2]))
+        err_yaw = abs(wrap_angle(end[2] - goal[2]))
         straight = math.hypot(goal[0] - start[0], goal[1] - start[1])
         print(f"MOVE_BASE_GOAL state={state} time_to_goal_s={elapsed:.1f} straight_line_m={straight:.2f} "
               f"final_xy_error_m={err_xy:.3f} final_yaw_error_rad={err_yaw:.3f} collisions={truth.collisions} "
@@ -85,7 +84,7 @@ class MoveBaseGoal(unittest.TestCase):
         self.assertEqual(cg.header.frame_id, "map")
         self.assertAlmostEqual(cg.pose.position.x, goal[0], places=6)
         self.assertAlmostEqual(cg.pose.position.y, goal[1], places=6)
-        self.assertAlmostEqual(lu.wrap(2 * math.atan2(cg.pose.orientation.z, cg.pose.orientation.w) - goal[2]), 0.0,
+        self.assertAlmostEqual(wrap_angle(2 * math.atan2(cg.pose.orientation.z, cg.pose.orientation.w) - goal[2]), 0.0,
                                places=6)
         self.assertGreater(local_plan.count, 0)
         self.assertEqual(local_plan.msg.header.frame_id, "odom")

@@ -16,9 +16,7 @@ import rostest
 from geometry_msgs.msg import PoseStamped
 from move_base_msgs.msg import MoveBaseActionResult
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 AMCL_MARGIN = 0.10   # [m]
 
@@ -29,51 +27,51 @@ class MoveBasePreempt(unittest.TestCase):
         first = (rospy.get_param("~first_x"), rospy.get_param("~first_y"))
         second = (rospy.get_param("~second_x"), rospy.get_param("~second_y"))
         xy_tol = rospy.get_param("/move_base/DWAPlannerROS/xy_goal_tolerance")
-        truth = mt.Truth(lu.map_in_world())
+        truth = gt.Truth(gt.map_in_world())
         results = []
         rospy.Subscriber("/move_base/result", MoveBaseActionResult, results.append, queue_size=20)
         simple = rospy.Publisher("/move_base_simple/goal", PoseStamped, queue_size=1, latch=True)
-        lu.wait_clock()
-        c = mt.client()
+        waits.wait_clock()
+        c = mb.client()
         start = truth.wait()
-        lu.sleep_sim(2.0)
-        c.send_goal(mt.make_goal(*first))
-        lu.wait_for(lambda: math.hypot(truth.pose[0] - start[0], truth.pose[1] - start[1]) > 1.0,
-                    "the robot driving toward the first goal", 120.0)
-        self.assertEqual(mt.state_name(c), "ACTIVE")
-        ps = mt.make_goal(second[0], second[1], math.pi / 2).target_pose
+        waits.sleep_sim(2.0)
+        c.send_goal(mb.make_goal(*first))
+        waits.wait_for(lambda: math.hypot(truth.pose[0] - start[0], truth.pose[1] - start[1]) > 1.0,
+                       "the robot driving toward the first goal", 120.0)
+        self.assertEqual(mb.state_name(c), "ACTIVE")
+        ps = mb.make_goal(second[0], second[1], math.pi / 2).target_pose
         ps.header.stamp = rospy.Time.now()
         t0 = rospy.Time.now()
         simple.publish(ps)
-        state, text = mt.wait_result(c, 10.0)
+        state, text = mb.wait_result(c, 10.0)
         print(f"PREEMPT first goal: {state}: {text!r}")
         self.assertEqual(state, "PREEMPTED", text)
 
         def second_result():   # move_base names the goals it makes of move_base_simple/goal so
             return [r for r in results if r.status.goal_id.id.startswith("move_base_simple")]
-        lu.wait_for(lambda: second_result(), "a result of the second goal", 300.0)
+        waits.wait_for(lambda: second_result(), "a result of the second goal", 300.0)
         r = second_result()[0]
         took = (rospy.Time.now() - t0).to_sec()
-        lu.sleep_sim(0.5)
+        waits.sleep_sim(0.5)
         end = truth.pose
         err = math.hypot(end[0] - second[0], end[1] - second[1])
-        print(f"PREEMPT second goal: status {mt.STATE_NAMES.get(r.status.status)} after {took:.1f} s sim, "
+        print(f"PREEMPT second goal: status {mb.STATE_NAMES.get(r.status.status)} after {took:.1f} s sim, "
               f"final error {err:.3f} m, collisions {truth.collisions}: {r.status.text!r}")
         self.assertEqual(r.status.status, 3, r.status.text)   # SUCCEEDED
         self.assertLessEqual(err, xy_tol + AMCL_MARGIN)
         self.assertEqual(truth.collisions, 0)
 
         # cancel while active
-        c.send_goal(mt.make_goal(*first))
+        c.send_goal(mb.make_goal(*first))
         here = truth.pose
-        lu.wait_for(lambda: math.hypot(truth.pose[0] - here[0], truth.pose[1] - here[1]) > 0.5,
-                    "the robot driving toward the third goal", 120.0)
+        waits.wait_for(lambda: math.hypot(truth.pose[0] - here[0], truth.pose[1] - here[1]) > 0.5,
+                       "the robot driving toward the third goal", 120.0)
         c.cancel_goal()
-        state, text = mt.wait_result(c, 10.0)
+        state, text = mb.wait_result(c, 10.0)
         self.assertEqual(state, "PREEMPTED", text)
-        lu.sleep_sim(1.5)
+        waits.sleep_sim(1.5)
         stopped = truth.pose
-        lu.sleep_sim(1.0)
+        waits.sleep_sim(1.0)
         self.assertLess(math.hypot(truth.pose[0] - stopped[0], truth.pose[1] - stopped[1]), 0.02,
                         "the robot should stand after a cancel")
         self.assertEqual(truth.collisions, 0)

@@ -9,30 +9,26 @@
 4. the global costmap's inflation_layer inflation_radius 0.3 -> the costmap republished
    has fewer inflated cells than before; amcl max_particles 2000 accepted, 99999 refused.
 """
-import os
 import sys
 import threading
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 from dynamic_reconfigure.client import Client
 from geometry_msgs.msg import Twist
 from summit_nav_common.ros.costmap_client import CostmapClient
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 
 class Reconfigure(unittest.TestCase):
     def test_reconfigure_changes_behaviour(self):
         rospy.init_node("move_base_reconfigure_test")
-        lu.wait_clock()
-        client = mt.client()
-        truth = mt.Truth(lu.spawn_in_world())
+        waits.wait_clock()
+        client = mb.client()
+        truth = gt.Truth(gt.spawn_in_world())
         truth.wait()
         dwa = Client("/move_base/DWAPlannerROS", timeout=60)
         cfg = dwa.update_configuration({"max_vel_x": 0.3, "max_vel_trans": 0.3})
@@ -44,8 +40,8 @@ class Reconfigure(unittest.TestCase):
             with lock:
                 top["vx"] = max(top["vx"], msg.linear.x)
         rospy.Subscriber("/summit_xl_control/cmd_vel", Twist, on_cmd, queue_size=50)
-        client.send_goal(mt.make_goal(6.0, 0.0, 0.0))
-        state, text = mt.wait_result(client, 120.0)
+        client.send_goal(mb.make_goal(6.0, 0.0, 0.0))
+        state, text = mb.wait_result(client, 120.0)
         self.assertEqual(state, "SUCCEEDED", text)
         print(f"RECONFIGURE top_cmd_vx={top['vx']:.3f}", flush=True)
         self.assertLessEqual(top["vx"], 0.3 + 1e-6)
@@ -62,13 +58,13 @@ class Reconfigure(unittest.TestCase):
             counts.append(int(np.count_nonzero((data > 0) & (data < 99))))
         # the whole grid once, then the redrawn windows on costmap_updates (costmap_2d's way)
         CostmapClient("/move_base/global_costmap/costmap", on_costmap)
-        lu.wait_for(lambda: len(counts) > 0, "the global costmap")
+        waits.wait_for(lambda: len(counts) > 0, "the global costmap")
         before = counts[-1]
         infl = Client("/move_base/global_costmap/inflation_layer", timeout=30)
         cfg = infl.update_configuration({"inflation_radius": 0.4})
         self.assertAlmostEqual(cfg["inflation_radius"], 0.4)
         n = len(counts)
-        lu.wait_for(lambda: len(counts) > n + 1, "the global costmap after reconfigure")
+        waits.wait_for(lambda: len(counts) > n + 1, "the global costmap after reconfigure")
         print(f"RECONFIGURE inflated_cells before={before} after={counts[-1]}", flush=True)
         self.assertLess(counts[-1], before * 0.8)
 

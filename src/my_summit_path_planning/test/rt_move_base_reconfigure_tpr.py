@@ -19,13 +19,11 @@ over SPEED_WINDOW of sim time).
    an obstacle); cost_factor 9 (range [0.01, 5]) is refused. No collision.
 """
 import math
-import os
 import sys
 import threading
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 from dynamic_reconfigure.client import Client
@@ -33,9 +31,7 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from nav_msgs.srv import GetPlan, GetPlanRequest
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 FAST = 0.45          # [m/s] the robot is driving at the YAML's max_vel_x (0.65) before the change
 SLOW = 0.3           # [m/s] the max_vel_x set
@@ -90,9 +86,9 @@ def served(namespace):
 class ReconfigureTPR(unittest.TestCase):
     def test_reconfigure_trajectory_and_global_planner(self):
         rospy.init_node("move_base_reconfigure_tpr_test")
-        lu.wait_clock()
-        client = mt.client()
-        truth = mt.Truth(lu.spawn_in_world())
+        waits.wait_clock()
+        client = mb.client()
+        truth = gt.Truth(gt.spawn_in_world())
         truth.wait()
         speed = Speed()
         tpr = Client("/move_base/TrajectoryPlannerROS", timeout=60)
@@ -103,13 +99,13 @@ class ReconfigureTPR(unittest.TestCase):
         self.assertAlmostEqual(cfg["max_vel_x"], 0.65)   # base_local_planner_params.yaml's, not the .cfg's 0.55
 
         # 1. the running planner
-        client.send_goal(mt.make_goal(6.0, 0.0, 0.0))
-        lu.wait_for(lambda: speed.now() > FAST, f"a ground-truth speed above {FAST} m/s")
+        client.send_goal(mb.make_goal(6.0, 0.0, 0.0))
+        waits.wait_for(lambda: speed.now() > FAST, f"a ground-truth speed above {FAST} m/s")
         fast = speed.now()
         cfg = tpr.update_configuration({"max_vel_x": SLOW})
         self.assertAlmostEqual(cfg["max_vel_x"], SLOW)
         t_change = rospy.Time.now().to_sec()
-        state, text = mt.wait_result(client, 120.0)
+        state, text = mb.wait_result(client, 120.0)
         self.assertEqual(state, "SUCCEEDED", text)
         after = speed.speeds(t_change + SETTLE)
         print(f"RECONFIGURE_TPR speed_before={fast:.3f} top_after_change={after.max():.3f} "
@@ -118,8 +114,8 @@ class ReconfigureTPR(unittest.TestCase):
 
         # 2. the next goal's planner
         t0 = rospy.Time.now().to_sec()
-        client.send_goal(mt.make_goal(2.0, 0.0, math.pi))
-        state, text = mt.wait_result(client, 120.0)
+        client.send_goal(mb.make_goal(2.0, 0.0, math.pi))
+        state, text = mb.wait_result(client, 120.0)
         self.assertEqual(state, "SUCCEEDED", text)
         leg = speed.speeds(t0)
         print(f"RECONFIGURE_TPR next_goal_top_speed={leg.max():.3f}", flush=True)
@@ -136,7 +132,7 @@ class ReconfigureTPR(unittest.TestCase):
         self.assertFalse(cfg["restore_defaults"])
 
         # 4. GlobalPlanner: lethal_cost decides whether an inflated cell can be a goal
-        g = lu.Latest("/move_base/global_costmap/costmap", OccupancyGrid).wait()
+        g = waits.Latest("/move_base/global_costmap/costmap", OccupancyGrid).wait()
         occ = np.asarray(g.data, dtype=np.int16).reshape(g.info.height, g.info.width)
         res, ox, oy = g.info.resolution, g.info.origin.position.x, g.info.origin.position.y
         rows, cols = np.nonzero((occ >= 40) & (occ <= 90))   # costmap cost ~100..230

@@ -22,9 +22,7 @@ from rosgraph_msgs.msg import Log
 
 from summit_xl_sim.srv import AddBox
 
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 DEFAULT_ORDER = ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
 ABORT_TEXTS = ("Failed to find a valid plan. Even after executing recovery behaviors.",
@@ -65,20 +63,20 @@ class MoveBaseRecovery(unittest.TestCase):
         wall = rospy.get_param("~ring_wall")
         max_sim = rospy.get_param("~max_sim_time")
         order = rospy.get_param("~order", DEFAULT_ORDER)
-        m_in_w = lu.map_in_world()
-        truth = mt.Truth(m_in_w)
+        m_in_w = gt.map_in_world()
+        truth = gt.Truth(m_in_w)
         log = RosoutRecoveries()
-        lu.wait_clock()
-        c = mt.client()
+        waits.wait_clock()
+        c = mb.client()
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
         add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
         x, y, yaw = truth.wait()
-        mt.ring_robot(add_box, (x, y, yaw), m_in_w, inner, wall)
-        lu.sleep_sim(1.0)   # a few scans of the ring
-        c.send_goal(mt.make_goal(*goal))
-        state, text = mt.wait_result(c, max_sim)
+        mb.ring_robot(add_box, (x, y, yaw), m_in_w, inner, wall)
+        waits.sleep_sim(1.0)   # a few scans of the ring
+        c.send_goal(mb.make_goal(*goal))
+        state, text = mb.wait_result(c, max_sim)
         end = truth.pose
-        lu.sleep_sim(0.5)   # the last recovery_status and rosout lines in flight
+        waits.sleep_sim(0.5)   # the last recovery_status and rosout lines in flight
         with log.lock:
             names = list(log.names)
             statuses = list(log.statuses)

@@ -1,11 +1,8 @@
 """scripts/bench_planning_core.py's planner combinations: each built by its type string
 through the move_base plugin registry with the intended parameters, the pairs the same for
-every combination, and the JSON keys the benchmark page (tools/bench_report.py) reads."""
-import importlib.util
+every combination (the JSON keys the benchmark page reads: tests/test_bench_report.py)."""
 import json
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
@@ -16,20 +13,7 @@ from my_summit_path_planning.navfn import NavFn
 from my_summit_path_planning.plugins import MoveBasePlugins
 from my_summit_path_planning.trajectory_planner import TrajectoryPlanner
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-
-
-def _load(name, path):
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod      # importable by name: the forked workers' functions are pickled by it
-    spec.loader.exec_module(mod)
-    return mod
-
-
-bench = _load("bench_planning_core", os.path.join(HERE, "..", "scripts", "bench_planning_core.py"))
-bench_report = _load("bench_report", os.path.join(WS, "tools", "bench_report.py"))
+import bench_planning_core as bench  # the script under test (tests/pytest.ini's pythonpath)
 
 
 @pytest.fixture(scope="module")
@@ -81,23 +65,6 @@ def test_pairs_are_seeded_connected_and_apart(params):
         (sx, sy, _), (gx, gy, _) = pair["start"], pair["goal"]
         assert math.hypot(gx - sx, gy - sy) >= bench.MIN_PAIR_DIST
         assert math.hypot(gx - sx, gy - sy) <= pair["geodesic_m"] < math.inf
-
-
-def test_json_keys_are_the_ones_the_benchmark_page_reads():
-    keys = set()
-    for world, _ in bench.WORLDS:
-        for g in bench.GLOBAL_PLANNERS:
-            for loc in bench.LOCAL_PLANNERS:
-                key = bench.combination_key(world, g, loc)
-                assert key == bench_report.closed_loop_key(world, g, loc)
-                keys.add(key)
-    assert len(keys) == 2 * 3 * 3
-    assert bench.combination_key("builtin", "navfn", "dwa") == "closed_loop_builtin"
-    assert bench.combination_key("willow", "navfn", "dwa") == "closed_loop_willow"
-    assert bench.combination_key("builtin", "navfn", "trajectory") == "closed_loop_builtin_trajectory"
-    assert [w for w, _ in bench.WORLDS] == list(bench_report.CLOSED_WORLDS)
-    assert list(bench.GLOBAL_PLANNERS) == list(bench_report.CLOSED_GLOBAL)
-    assert list(bench.LOCAL_PLANNERS) == list(bench_report.CLOSED_LOCAL)
 
 
 # -- the closed loop: move_base's core over the simulator ------------------------------------
