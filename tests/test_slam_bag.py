@@ -60,7 +60,6 @@ def test_runner_on_a_file_that_is_not_carmen_names_it(tmp_path):
 
 def test_node_parameters_follow_the_evaluation_settings():
     import numpy as np
-    sys.path.insert(0, os.path.dirname(RUNNER))
     import bench_slam_bag
     from my_summit_mapping.carmen_bag import BagScans
 
@@ -77,8 +76,8 @@ def test_node_parameters_follow_the_evaluation_settings():
 
 
 def test_another_node_runs_directly_in_the_environment_its_setup_file_leaves(tmp_path):
-    sys.path.insert(0, os.path.dirname(RUNNER))
     import bench_slam_bag
+    from summit_nav_common.testing.roslaunch_session import sourced_env
 
     ours = bench_slam_bag.node_command()
     assert ours[0] == sys.executable and ours[1].endswith(os.path.join("nodes", "slam_gmapping"))
@@ -88,19 +87,18 @@ def test_another_node_runs_directly_in_the_environment_its_setup_file_leaves(tmp
     setup = tmp_path / "setup.bash"
     setup.write_text('echo sourcing\nexport LD_LIBRARY_PATH="/ws/devel/lib:$LD_LIBRARY_PATH"\n'
                      'export MULTI="a\nb=c"\nunset DROPPED\n')
-    env = bench_slam_bag.sourced_env(str(setup), {"PATH": os.environ["PATH"], "LD_LIBRARY_PATH": "/opt/lib",
-                                                  "DROPPED": "1", "ROS_MASTER_URI": "http://127.0.0.1:1"})
+    env = sourced_env(str(setup), {"PATH": os.environ["PATH"], "LD_LIBRARY_PATH": "/opt/lib",
+                                   "DROPPED": "1", "ROS_MASTER_URI": "http://127.0.0.1:1"})
     assert env["LD_LIBRARY_PATH"] == "/ws/devel/lib:/opt/lib" and env["MULTI"] == "a\nb=c"
     assert env["ROS_MASTER_URI"] == "http://127.0.0.1:1" and "DROPPED" not in env
     setup.write_text("return 3\n")
     with pytest.raises(ValueError, match=f"--node-setup {setup}: sourcing it failed \\(exit status 3\\)"):
-        bench_slam_bag.sourced_env(str(setup), {"PATH": os.environ["PATH"]})
+        sourced_env(str(setup), {"PATH": os.environ["PATH"]})
 
 
 def test_another_nodes_updates_are_counted_from_its_log_or_not_known(tmp_path):
     """The real gmapping prints "update frame N" at each filter update (N: scans received);
     its stderr interleaves (the second update's line follows a tf warning)."""
-    sys.path.insert(0, os.path.dirname(RUNNER))
     import bench_slam_bag
 
     log = tmp_path / "node.log"
@@ -125,7 +123,6 @@ def test_offline_replay_of_a_log_feeds_the_filter_what_the_node_gets_from_its_ba
     the log's own float64 values ACES seed 1 ended at an online ATE of 0.868 m where the
     live run (and the replay of its bag) gave 0.422 m."""
     import numpy as np
-    sys.path.insert(0, os.path.dirname(RUNNER))
     import slam_bag_offline
     from my_summit_mapping import carmen, carmen_bag, laser_mount
     from summit_nav_common.geometry import quaternion_matrix

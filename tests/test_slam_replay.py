@@ -12,7 +12,6 @@ WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPTS = os.path.join(WS, "src", "my_summit_mapping", "scripts")
 RUNNER = os.path.join(SCRIPTS, "bench_slam_replay.py")
 INTEL = os.path.join(WS, "data", "carmen", "intel-corrected.log.gz")
-sys.path.insert(0, SCRIPTS)
 
 
 def test_player_log_gives_each_best_pose_the_scan_of_its_update():
@@ -57,7 +56,6 @@ def test_bag_for_the_player_carries_the_laser_mount_in_tf(tmp_path):
     """slam_gmapping_replay reads /tf and /scan only, so base_link -> base_laser goes into
     every /tf message as well; the bag reads back as the plain one."""
     import rosbag
-    sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "src"))
     from my_summit_mapping import carmen, carmen_bag
     scans = carmen_bag.bag_scans(carmen.read_carmen(INTEL), seed=1)
     scans = carmen_bag.BagScans(**{**scans.__dict__, "stamps": scans.stamps[:4], "ranges": scans.ranges[:4],
@@ -95,7 +93,6 @@ def test_replay_with_the_real_nodes_conventions_moves_cells_and_beams_as_it_does
     cell borders lie at its map centre + delta/2 modulo delta (world2map rounds from the
     centre); ours are at multiples of delta, so the odometry moves by the difference."""
     import slam_bag_offline
-    sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "src"))
     from my_summit_mapping import carmen, carmen_bag
     scans = carmen_bag.bag_scans(carmen.read_carmen(INTEL), seed=1)
     params = dict(delta=0.05, xmin=-27.0, xmax=29.0, ymin=-45.0, ymax=6.2)   # centre (1.0, -19.4)

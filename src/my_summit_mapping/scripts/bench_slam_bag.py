@@ -68,14 +68,12 @@ import time
 
 import numpy as np
 
+from summit_nav_common.testing.roslaunch_session import (Watched, check_alive, check_node_args, child_result,
+                                                         cpu_seconds, exit_on_sigterm, print_result, sourced_env,
+                                                         tail, wait_for)
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-sys.path.insert(0, HERE)
-
-from roslaunch_session import (Watched, check_alive, check_node_args, child_result, cpu_seconds,  # noqa: E402,F401
-                               exit_on_sigterm, print_result, sourced_env, tail, wait_for)  # (test_slam_bag uses some)
 
 NODE = os.path.join(HERE, "..", "nodes", "slam_gmapping")
 NODE_NAME = "slam_gmapping"
@@ -226,7 +224,7 @@ class Recorder:
 def run_once(bag, seed, rate, overrides, out_dir, node_cmd=None, node_setup=None, slam="gmapping"):
     """Play `bag` through slam_gmapping or slam_karto (ours, or node_cmd in the environment
     node_setup leaves) once; returns the result dict (see module docstring)."""
-    from roslaunch_session import Roscore, stop_process_tree
+    from summit_nav_common.testing.roslaunch_session import Roscore, stop_process_tree
     from my_summit_mapping import carmen_bag, online_eval
 
     node_name = SLAMS[slam][1]

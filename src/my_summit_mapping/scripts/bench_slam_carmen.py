@@ -27,12 +27,11 @@ import time
 import cv2
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
+from my_summit_mapping import carmen, metrics
+from my_summit_mapping.rbpf import RbpfSlam
+from my_summit_mapping.slam_config import SlamConfig
 
-from my_summit_mapping import carmen, metrics  # noqa: E402
-from my_summit_mapping.rbpf import RbpfSlam  # noqa: E402
-from my_summit_mapping.slam_config import SlamConfig  # noqa: E402
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 DATA_DIR = os.path.join(HERE, "..", "..", "..", "data", "carmen")  # the workspace's data/
 LOGS = {"intel": "intel-corrected.log.gz", "aces": "aces-corrected.log.gz"}

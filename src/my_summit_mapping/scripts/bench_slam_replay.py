@@ -39,16 +39,13 @@ import sys
 
 import numpy as np
 
+from bench_slam_bag import NODE_NAME, node_params, parse_set
+from my_summit_mapping import carmen, carmen_bag, metrics, online_eval
+from summit_nav_common.testing.roslaunch_session import Roscore, sourced_env
+from summit_nav_common.geometry import compose, inverse
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-sys.path.insert(0, HERE)
-
-from bench_slam_bag import NODE_NAME, node_params, parse_set  # noqa: E402
-from my_summit_mapping import carmen, carmen_bag, metrics, online_eval  # noqa: E402
-from roslaunch_session import Roscore, sourced_env  # noqa: E402
-from summit_nav_common.geometry import compose, inverse  # noqa: E402
 
 # gmapping's ROS_DEBUG lines (package "gmapping" logs as ros.gmapping) and GridSlamProcessor's
 # update line, the only outputs of the player that carry the estimate.

@@ -7,14 +7,14 @@ particles, the tour driver) on a private ROS master; records the ground truth
 after that, and judges the run with my_summit_mapping.evaluation: ATE RMSE [m] of the
 best particle's trajectory (slam_gmapping's ~trajectory) against the ground truth, map
 precision and recall against the true walls seen by the laser, CPU seconds of the SLAM
-node (psutil, user + system) per simulated second of the tour, and the node's peak
+node (/proc, user + system) per simulated second of the tour, and the node's peak
 resident memory (VmHWM). Several runs: the median of each figure is reported too.
 
 Targets (issue 3): ATE <= 0.05 m, precision >= 0.95, recall >= 0.90, <= 0.33 CPU s per
 simulated s.
 
-With --profile, one more run has slam_gmapping under tools/profile_node.py (every thread,
-CPU clock); the shares of its profiled CPU per stage (PROFILE_STAGES: scan matching, map
+With --profile, one more run has slam_gmapping under summit_nav_common.testing.profile_node
+(every thread, CPU clock); the shares of its profiled CPU per stage (PROFILE_STAGES: scan matching, map
 integration, resampling, the map's publication, ...) go to the JSON as profile_shares. The
 profiler slows the node: that run's figures are not the benchmark's.
 
@@ -29,18 +29,17 @@ import sys
 import threading
 import time
 
-import cv2
 import numpy as np
+
+from summit_nav_common.testing import profile_node
+
+from my_summit_mapping.tour_recorder import TourRecorder, write_png
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-import profile_node  # noqa: E402  (where a profiled run's time goes)
 
 TARGETS = dict(ate_m=0.05, precision=0.95, recall=0.90, cpu_per_sim_s=0.33)  # issue 3
 RSS_POLL = 0.5          # [s wall] between peak-memory samples
-FINAL_MAP_GRACE = 30.0  # [s sim] after the tour for the last map (map_update_interval 5 s)
 DEFAULT_WORLD = "course_building.yaml"
 
 # Where slam_gmapping's time goes: stage -> functions whose cumulative CPU it is
@@ -61,148 +60,13 @@ PROFILE_STAGES = (
 PROFILE_CONTAINS = {4: [0, 1, 2, 3], 8: [7]}
 
 
-class TourRecorder:
-    """Ground truth, the tour's end, the latest map and SLAM trajectory, from ROS topics.
-
-    Shared by this benchmark and the mapping rostests (test/rt_mapping_tour.py). Call
-    after rospy.init_node. slam_node: the SLAM node whose ~trajectory is recorded
-    (slam_gmapping or slam_karto).
-    """
-
-    def __init__(self, slam_node="slam_gmapping"):
-        import rospy
-        from nav_msgs.msg import OccupancyGrid, Odometry, Path
-        from rospy.numpy_msg import numpy_msg
-        from std_msgs.msg import Bool
-        self.lock = threading.Lock()
-        self.truth = []             # (t [s], x [m], y [m], yaw [rad])
-        self.done_time = None       # sim time the tour driver said done [s]
-        self.map_msg = None
-        self.path_msg = None
-        self.map_count = 0
-        self.subs = [
-            rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=200),
-            rospy.Subscriber("/tour_driver/done", Bool, self._on_done, queue_size=1),
-            rospy.Subscriber("/map", numpy_msg(OccupancyGrid), self._on_map, queue_size=1,
-                             buff_size=2 ** 24),
-            rospy.Subscriber(f"/{slam_node}/trajectory", Path, self._on_path, queue_size=1,
-                             buff_size=2 ** 22)]
-
-    def _on_truth(self, msg):
-        p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        yaw = np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-        with self.lock:
-            self.truth.append((msg.header.stamp.to_sec(), p.x, p.y, yaw))
-
-    def _on_done(self, msg):
-        import rospy
-        if msg.data and self.done_time is None:
-            self.done_time = rospy.Time.now().to_sec()
-            assert self.done_time < 1e6, "rospy is not on simulated time (/use_sim_time)"
-
-    def _on_map(self, msg):
-        with self.lock:
-            self.map_msg = msg
-            self.map_count += 1
-
-    def _on_path(self, msg):
-        with self.lock:
-            self.path_msg = msg
-
-    def wait_done_and_final_map(self, timeout_wall, alive=lambda: True):
-        """Block until the tour is done and a map and trajectory stamped after it arrived.
-
-        Returns None or why it failed (timeout, launch died)."""
-        import rospy
-        end = time.monotonic() + timeout_wall
-        while time.monotonic() < end and not rospy.is_shutdown():
-            if not alive():
-                return "the launch ended before the tour was done"
-            with self.lock:
-                done = self.done_time
-                m, p = self.map_msg, self.path_msg
-            if done is not None and m is not None and p is not None and \
-                    m.header.stamp.to_sec() > done and p.header.stamp.to_sec() > done:
-                return None
-            if done is not None and rospy.Time.now().to_sec() > done + FINAL_MAP_GRACE:
-                return (f"no map and trajectory published within {FINAL_MAP_GRACE} s (sim) after the tour "
-                        f"(done at {done:.1f} s; {self.map_count} maps, last stamped "
-                        f"{m.header.stamp.to_sec() if m else None}; trajectory stamped "
-                        f"{p.header.stamp.to_sec() if p else None})")
-            time.sleep(0.1)
-        return f"tour not done within {timeout_wall} s (wall)"
-
-    def evaluate(self, world, max_urange):
-        """my_summit_mapping.evaluation.evaluate of the recorded run."""
-        from summit_xl_sim.sim import LaserParams
-        from my_summit_mapping import evaluation
-        with self.lock:
-            truth = np.array(self.truth)
-            m, p = self.map_msg, self.path_msg
-        order = np.argsort(truth[:, 0], kind="stable")
-        truth = truth[order]
-        traj = np.array([(ps.pose.position.x, ps.pose.position.y,
-                          2 * np.arctan2(ps.pose.orientation.z, ps.pose.orientation.w)) for ps in p.poses])
-        times = np.array([ps.header.stamp.to_sec() for ps in p.poses])
-        info = m.info
-        grid = (np.asarray(m.data, np.int8), info.width, info.height, info.resolution,
-                info.origin.position.x, info.origin.position.y)
-        laser = LaserParams()
-        result = evaluation.evaluate(traj, times, truth[:, 0], truth[:, 1:], grid, world,
-                                     laser.mount, laser.angles(), max_urange)
-        inside = evaluation.within_span(times, truth[:, 0])
-        result.update(trajectory=traj[inside],
-                      truth=evaluation.interpolate_poses(times[inside], truth[:, 0], truth[:, 1:]),
-                      processed_scans=len(traj))
-        return result
-
-
-def wait_for_sim_time(session, deadline):
-    """Wait until the launch has set /use_sim_time, so rospy.init_node picks sim time."""
-    import rosgraph
-    master = rosgraph.Master("/bench_slam_sim")
-    while time.monotonic() < deadline and session.alive():
-        try:
-            if master.getParam("/use_sim_time"):
-                return
-        except Exception:  # master not up yet, or parameter not set yet
-            pass
-        time.sleep(0.1)
-    raise RuntimeError("the launch did not set /use_sim_time")
-
-
-def find_node(launch_pid, name):
-    """psutil.Process of the node `name` started below roslaunch `launch_pid`, or None."""
-    import psutil
-    try:
-        for p in psutil.Process(launch_pid).children(recursive=True):
-            try:
-                if any(a == f"__name:={name}" for a in p.cmdline()):
-                    return p
-            except psutil.NoSuchProcess:
-                continue
-    except psutil.NoSuchProcess:
-        pass
-    return None
-
-
-def peak_rss_mb(proc):
-    """Peak resident memory [MB] of a process (VmHWM), or its current RSS."""
-    try:
-        with open(f"/proc/{proc.pid}/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return proc.memory_info().rss / 2 ** 20
-
-
 def run_once(index, args, world, log_dir):
     import rospy
-    from roslaunch_session import RoslaunchSession
-    from my_summit_mapping.slam_config import SlamConfig
     import yaml
+    from summit_nav_common.testing.roslaunch_session import (RoslaunchSession, cpu_seconds, find_node_pid,
+                                                             peak_rss_mb, wait_for_sim_time_param)
+    from summit_xl_sim.sim import LaserParams
+    from my_summit_mapping.slam_config import SlamConfig
     params_path = os.path.join(HERE, "..", "config", "gmapping_params.yaml")
     with open(params_path) as f:
         config = SlamConfig.from_dict(yaml.safe_load(f))
@@ -212,19 +76,19 @@ def run_once(index, args, world, log_dir):
     if profile:
         launch.append("launch_prefix:=" + profile_node.launch_prefix(profile, all_threads=True))
     with RoslaunchSession(launch, log=log) as session:
-        wait_for_sim_time(session, time.monotonic() + 60.0)
+        wait_for_sim_time_param(session, 60.0)
         rospy.init_node("bench_slam_sim", anonymous=True, disable_signals=True)  # once per process
         recorder = TourRecorder()
         node = None
         t_end = time.monotonic() + 60.0
         while node is None and time.monotonic() < t_end:
-            node = find_node(session.proc.pid, "slam_gmapping")
+            node = find_node_pid(session.proc.pid, "slam_gmapping")
             time.sleep(0.2)
         if node is None:
             raise RuntimeError(f"slam_gmapping did not start; see {log}")
         while rospy.Time.now().to_sec() <= 0.0 and time.monotonic() < t_end:
             time.sleep(0.05)
-        cpu0, sim0 = sum(node.cpu_times()[:2]), rospy.Time.now().to_sec()
+        cpu0, sim0 = cpu_seconds(node), rospy.Time.now().to_sec()
         peak = [0.0]
         stop = threading.Event()
 
@@ -241,13 +105,13 @@ def run_once(index, args, world, log_dir):
         while recorder.done_time is None and time.monotonic() < end and session.alive():
             time.sleep(0.05)
         if recorder.done_time is not None:
-            cpu_at_done = sum(node.cpu_times()[:2])
+            cpu_at_done = cpu_seconds(node)
             sim_at_done = rospy.Time.now().to_sec()
         problem = recorder.wait_done_and_final_map(max(end - time.monotonic(), 1.0), session.alive)
         stop.set()
         if problem:
             raise RuntimeError(f"run {index}: {problem}; see {log}")
-        result = recorder.evaluate(world, config.maxUrange)
+        result = recorder.evaluate(world, config.maxUrange, LaserParams())
     sim_s = sim_at_done - sim0
     result.update(run=index, sim_s=sim_s, cpu_s=cpu_at_done - cpu0,
                   cpu_per_sim_s=(cpu_at_done - cpu0) / sim_s, peak_rss_mb=peak[0],
@@ -256,31 +120,6 @@ def run_once(index, args, world, log_dir):
         profile_node.print_profile(profile + ".pstats", 25)
         result["profile_shares"] = profile_node.stage_shares(profile + ".pstats", PROFILE_STAGES, PROFILE_CONTAINS)
     return result
-
-
-def write_png(result, path, world):
-    """World-frame picture: true walls grey, seen walls not mapped blue, SLAM occupied
-    cells black (near a wall) or red (not), ground truth green, SLAM trajectory red."""
-    walls, occ, seen = world.walls, result["map_occupied"], result["seen_walls"]
-    img = np.full(walls.shape + (3,), 255, np.uint8)
-    img[walls] = (200, 200, 200)
-    near = cv2.dilate(occ.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    img[seen & ~near] = (255, 0, 0)
-    near_wall = cv2.dilate(walls.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    img[occ & near_wall] = (0, 0, 0)
-    img[occ & ~near_wall] = (0, 0, 255)
-    rot_yaw, tx, ty = result["alignment"]
-    c, s = np.cos(rot_yaw), np.sin(rot_yaw)
-    for poses, colour in ((result["truth"], (0, 160, 0)), (result["trajectory"], (0, 0, 255))):
-        xy = poses[:, :2]
-        if poses is result["trajectory"]:
-            xy = xy @ np.array([[c, -s], [s, c]]).T + (tx, ty)
-        gx, gy = world.to_grid(xy[:, 0], xy[:, 1])
-        pts = np.column_stack((gx, gy)).round().astype(np.int32).reshape(-1, 1, 2)
-        cv2.polylines(img, [pts], False, colour, 1)
-    img = np.flipud(img)
-    scale = 2
-    cv2.imwrite(path, cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST))
 
 
 def main(argv=None):

@@ -11,13 +11,9 @@ Usage: carmen_to_bag.py LOG OUT.bag [--seed 0]
 Exit status 2 with a message naming the file when LOG is missing or not a CARMEN log.
 """
 import argparse
-import os
 import sys
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-
-from my_summit_mapping import carmen, carmen_bag  # noqa: E402
+from my_summit_mapping import carmen, carmen_bag
 
 
 def convert(log_path, bag_path, seed):

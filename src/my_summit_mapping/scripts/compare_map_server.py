@@ -30,12 +30,10 @@ import threading
 import numpy as np
 from PIL import Image
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
+from summit_nav_common.testing.roslaunch_session import (Roscore, check_node_args, exit_on_sigterm, sourced_env,
+                                                         stop_process_tree, wait_for)
 
-from roslaunch_session import (Roscore, check_node_args, exit_on_sigterm, sourced_env,  # noqa: E402
-                               stop_process_tree, wait_for)
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 NODE = os.path.join(HERE, "..", "nodes", "map_server")
 MAP_TIMEOUT = 20.0   # [s wall] for the node to publish /map

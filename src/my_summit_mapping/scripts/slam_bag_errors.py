@@ -17,15 +17,11 @@ Usage: slam_bag_errors.py NPZ [NPZ ...] [--bins 20] [--jumps 8]
   e.g. slam_bag_errors.py output/slam_bag_aces/slam_bag_seed*.npz
 """
 import argparse
-import os
 import sys
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-
-from my_summit_mapping import metrics, online_eval  # noqa: E402
+from my_summit_mapping import metrics, online_eval
 
 
 def report(path, bins, jumps):

@@ -41,14 +41,12 @@ from dataclasses import replace
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-sys.path.insert(0, HERE)
+from bench_slam_bag import node_params, parse_set
+from my_summit_mapping import carmen, carmen_bag, laser_mount, metrics, online_eval
+from my_summit_mapping.rbpf import RbpfSlam
+from my_summit_mapping.slam_config import SlamConfig
 
-from bench_slam_bag import node_params, parse_set  # noqa: E402
-from my_summit_mapping import carmen, carmen_bag, laser_mount, metrics, online_eval  # noqa: E402
-from my_summit_mapping.rbpf import RbpfSlam  # noqa: E402
-from my_summit_mapping.slam_config import SlamConfig  # noqa: E402
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def as_gmapping(scans, params):

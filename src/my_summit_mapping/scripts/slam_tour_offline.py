@@ -30,14 +30,12 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import yaml
 
+from my_summit_mapping import evaluation
+from my_summit_mapping.rbpf import RbpfSlam
+from my_summit_mapping.slam_config import SlamConfig
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 SRC = os.path.abspath(os.path.join(HERE, "..", ".."))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-sys.path.insert(0, os.path.join(SRC, "summit_xl_sim", "src"))
-
-from my_summit_mapping import evaluation  # noqa: E402
-from my_summit_mapping.rbpf import RbpfSlam  # noqa: E402
-from my_summit_mapping.slam_config import SlamConfig  # noqa: E402
 
 WORLDS = os.path.join(SRC, "summit_xl_sim", "worlds")
 WORLD_YAML = os.path.join(WORLDS, "course_building.yaml")

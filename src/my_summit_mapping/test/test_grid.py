@@ -6,7 +6,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from my_summit_mapping import grid as G
-from synthetic_world import ANGLES, ray_cast
+from summit_nav_common.testing.scenes import ANGLES, ray_cast
 
 RES = 0.05  # [m]
 

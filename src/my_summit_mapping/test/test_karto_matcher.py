@@ -7,7 +7,7 @@ import numpy as np
 from numpy.testing import assert_allclose, assert_array_equal
 
 from my_summit_mapping.karto import correlative_matcher as cm
-from synthetic_world import ANGLES, ray_cast
+from summit_nav_common.testing.scenes import ANGLES, ray_cast
 
 SEARCH = cm.SearchSpace(dimension=0.3, resolution=0.01, smear_deviation=0.03)
 SETTINGS = cm.MatcherSettings()

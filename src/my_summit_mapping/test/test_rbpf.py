@@ -10,7 +10,7 @@ from my_summit_mapping.grid import OCCUPIED, PatchGrid
 from my_summit_mapping import rbpf as rbpf_module
 from my_summit_mapping.rbpf import RbpfSlam, low_variance_resample, normalized_weights
 from my_summit_mapping.slam_config import SlamConfig
-from synthetic_world import ANGLES, ray_cast
+from summit_nav_common.testing.scenes import ANGLES, ray_cast
 
 LASER = (0.2, 0.0, 0.0)  # laser mount in the base frame [m, m, rad]
 

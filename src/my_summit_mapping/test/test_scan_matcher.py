@@ -7,7 +7,7 @@ from numpy.testing import assert_allclose
 
 from my_summit_mapping import scan_matcher as sm
 from my_summit_mapping.grid import PatchGrid
-from synthetic_world import ANGLES, ray_cast
+from summit_nav_common.testing.scenes import ANGLES, ray_cast
 
 RES = 0.047           # not a divisor of the wall coordinates (walls mid-cell, as in reality) [m]
 MAX_URANGE = 20.0     # [m]

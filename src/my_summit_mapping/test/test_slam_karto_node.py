@@ -22,7 +22,7 @@ from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker
 
 from my_summit_mapping.srv import DeserializePoseGraphRequest, SerializePoseGraphRequest
-from synthetic_world import ANGLES, ray_cast
+from summit_nav_common.testing.scenes import ANGLES, ray_cast
 
 NODE = Path(__file__).resolve().parents[1] / "nodes" / "slam_karto"
 PARAMS = dict(transform_publish_period=0.0, base_frame="base_link", map_update_interval=0.0)

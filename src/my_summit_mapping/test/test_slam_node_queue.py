@@ -32,7 +32,7 @@ from sensor_msgs.msg import LaserScan
 
 from my_summit_mapping.rbpf import RbpfSlam
 from my_summit_mapping.slam_config import SlamConfig
-from synthetic_world import ANGLES, ray_cast
+from summit_nav_common.testing.scenes import ANGLES, ray_cast
 from test_tf_loop_shutdown import _load_node_module
 
 PARAMS = dict(particles=8, transform_publish_period=0.0, xmin=-6.0, ymin=-5.0, xmax=6.0, ymax=5.0)
