@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """`make demo`: the whole course project, headless, with progress lines, a table and pictures.
 
-The simulator runs throughout; tools/course_project.py (shared with the end-to-end
+The simulator runs throughout; my_summit_navigation.course_project (shared with the end-to-end
 rostest, tests/course_project.test) then does what the student does:
 
 1. slam_gmapping maps the building while the tour driver takes the Summit XL through
@@ -33,9 +33,10 @@ import time
 import cv2
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from roslaunch_session import RoslaunchSession, wait_for_sim_time_param  # noqa: E402
-import course_project as cp  # noqa: E402
+from summit_nav_common.geometry import quaternion_to_yaw, relative
+from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for_sim_time_param
+
+from my_summit_navigation import course_project as cp
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(WS, "output")
@@ -195,7 +196,7 @@ class Watch:
                 self.scan, self.scan_pose = np.array(msg.ranges), pose
 
     def _on_cloud(self, msg):
-        self.cloud = [(p.position.x, p.position.y, cp.yaw_of(p.orientation)) for p in msg.poses]
+        self.cloud = [(p.position.x, p.position.y, quaternion_to_yaw(p.orientation)) for p in msg.poses]
 
     def _on_plan(self, msg):
         self.plan = [(p.pose.position.x, p.pose.position.y) for p in msg.poses]
@@ -217,9 +218,10 @@ def run_course(progress, gui, seed, work, speed=SPEED):
     import rospy
     import yaml
     from my_summit_mapping.slam_config import SlamConfig
+    from summit_xl_sim.sim import LaserParams
     from summit_xl_sim.world import World
-    sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
-    from bench_slam_sim import TourRecorder, write_png
+    from summit_xl_sim.worldgen import world_spots
+    from my_summit_mapping.tour_recorder import TourRecorder, write_png
 
     world = World.from_yaml(os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.yaml"))
     with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
@@ -236,7 +238,7 @@ def run_course(progress, gui, seed, work, speed=SPEED):
     with RoslaunchSession(args, log=os.path.join(work, "sim.log")) as session:
         wait_for_sim_time_param(session)
         rospy.init_node("demo", anonymous=True, disable_signals=True)
-        with cp.CourseProject(work, progress, wall_limit=900.0) as project:
+        with cp.CourseProject(work, world_spots(cp.WORLD_DESCRIPTION), progress, wall_limit=900.0) as project:
             watch = Watch(project)
             project.wait(lambda: project.pose() is not None, "waiting for the simulator", 60)
             progress(f"simulator up at {speed:g}x real time (seed {seed}), robot at the spawn pose "
@@ -244,7 +246,7 @@ def run_course(progress, gui, seed, work, speed=SPEED):
             # 1. mapping
             t0, w0 = rospy.Time.now().to_sec(), time.monotonic()
             recorder = project.map_building(TourRecorder)
-            result = recorder.evaluate(world, slam_cfg.maxUrange)
+            result = recorder.evaluate(world, slam_cfg.maxUrange, LaserParams())
             with recorder.lock:
                 traj = [(x, y) for _, x, y, _ in recorder.truth]
             length = float(np.sum(np.hypot(*np.diff(np.array(traj), axis=0).T))) if len(traj) > 1 else 0.0
@@ -272,7 +274,7 @@ def run_course(progress, gui, seed, work, speed=SPEED):
             spots_file = os.path.join(work, "spots.txt")
             project.start_navigation(base + ".yaml", initial, spots_file)
             project.wait(lambda: watch.cloud is not None, "waiting for amcl's particle cloud", 30)
-            truth_map = cp.relative(project.spawn, project.pose())
+            truth_map = relative(project.spawn, project.pose())
             clouds = [("amcl at start: initial cloud (red), truth (green)", watch.cloud, truth_map)]
             for label in cp.RECORD_ORDER:
                 state, text = project.drive_to(label)
@@ -280,7 +282,7 @@ def run_course(progress, gui, seed, work, speed=SPEED):
                     raise cp.StepFailed(f"driving to '{label}' to record it: {text}")
                 if len(clouds) == 1:
                     clouds.append((f"after driving to '{label}': converged", watch.cloud,
-                                   cp.relative(project.spawn, project.pose())))
+                                   relative(project.spawn, project.pose())))
                 resp = project.call("/save_spot", label)
                 exy, eyaw = project.error_to(label)
                 progress(f"/save_spot '{label}': {resp.message}; robot {exy:.3f} m / {math.degrees(eyaw):.1f} deg "
@@ -311,7 +313,7 @@ def run_course(progress, gui, seed, work, speed=SPEED):
                     if first_plan is None and watch.plan:
                         first_plan = watch.plan
                     p = project.pose()
-                    driven.append(cp.relative(project.spawn, p)[:2])
+                    driven.append(relative(project.spawn, p)[:2])
                     th.join(0.1)
                 if "resp" not in box:
                     raise cp.StepFailed(f"/get_coordinates '{label}' failed (see the launch logs in {work})")

@@ -25,7 +25,6 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
 WORLDS = {
     "builtin": os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.yaml"),
     # willow-full with its unknown cells solid: through the gaps of its dashed walls the
@@ -58,7 +57,7 @@ def start_poses(world_yaml, n, seed):
 
 def one_run(world_name, pose, speed, out_dir):
     """One exploration in this process; returns the result dict."""
-    from roslaunch_session import RoslaunchSession, wait_for_sim_time_param
+    from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for_sim_time_param
     world_yaml = WORLDS[world_name]
     x, y, yaw = pose
     log = os.path.join(out_dir, f"explore_{world_name}_{x:.1f}_{y:.1f}.log")
@@ -71,11 +70,11 @@ def one_run(world_name, pose, speed, out_dir):
         import yaml
         from std_msgs.msg import Bool, String, UInt32
         from my_summit_mapping.slam_config import SlamConfig
+        from my_summit_mapping.tour_recorder import TourRecorder, write_png
         from my_summit_navigation.frontiers import exploration_coverage
         from summit_nav_common.map_io import load_map
+        from summit_xl_sim.sim import LaserParams
         from summit_xl_sim.world import World
-        sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
-        from bench_slam_sim import TourRecorder, write_png
         rospy.init_node("bench_explore", anonymous=True, disable_signals=True)
         rec = TourRecorder()
         st = {"done": False, "summary": None, "coll": 0}
@@ -106,7 +105,7 @@ def one_run(world_name, pose, speed, out_dir):
         with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
             max_urange = SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
         world = World.from_yaml(world_yaml)
-        quality = rec.evaluate(world, max_urange)
+        quality = rec.evaluate(world, max_urange, LaserParams())
         # the map judged against the true walls, with the true and SLAM trajectories
         write_png(quality, os.path.splitext(log)[0] + "_judged.png", world)
     return {"world": world_name, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),

@@ -16,7 +16,7 @@
     simulator. The answer is the largest n whose factor is >= --rtf (default 0.97:
     the simulator holds 1.0 when it keeps up; its own sleep jitter costs ~1%).
 Not a test: it measures and reports. Each launch gets its own ROS master and is stopped,
-with everything below it, at the end (tools/roslaunch_session.py).
+with everything below it, at the end (summit_nav_common.testing.roslaunch_session).
 """
 import argparse
 import glob
@@ -33,15 +33,15 @@ import cv2
 import numpy as np
 import psutil
 import rospkg
+from summit_nav_common.map_io import load_map
+from summit_nav_common.ros.action_client import SimpleActionClient
+from summit_nav_common.testing.roslaunch_session import (RoslaunchSession, run_bounded, wait_for,
+                                                         wait_for_sim_time_param)
+
+from my_summit_navigation.multi_robot import robots_param
 
 PKG = rospkg.RosPack().get_path("my_summit_navigation")
 WS = os.path.normpath(os.path.join(PKG, "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-from roslaunch_session import RoslaunchSession, run_bounded, wait_for, wait_for_sim_time_param  # noqa: E402
-
-from my_summit_navigation.multi_robot import robots_param  # noqa: E402
-from summit_nav_common.map_io import load_map  # noqa: E402
-from summit_nav_common.ros.action_client import SimpleActionClient
 
 MAP_YAML = os.path.join(PKG, "maps", "willow-full.yaml")
 LINE = re.compile(r"MULTI_ROBOT (.*?) text=")

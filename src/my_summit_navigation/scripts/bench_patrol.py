@@ -34,9 +34,6 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
-sys.path.insert(0, os.path.join(WS, "src", "my_summit_path_planning", "test"))
-sys.path.insert(0, os.path.join(WS, "src", "my_summit_localization", "test"))
 
 LABELS = ("table", "room", "turtle")
 BOX_FROM = (4, 16)      # a box on the first goal from each of these numbers on where one fits
@@ -67,7 +64,7 @@ def box_point(path_xy, robot_xy, clearance_at):
 
 
 def run(rounds, speed, seed, log):
-    from roslaunch_session import RoslaunchSession, wait_for_sim_time_param
+    from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for_sim_time_param
     args = ["my_summit_navigation", "patrol.launch", "stack:=true", "sim:=true", f"speed:={speed}",
             f"seed:={seed}", f"rounds:={rounds}", "labels:=[" + ", ".join(LABELS) + "]"]
     with RoslaunchSession(args, log=log) as session:
@@ -79,8 +76,7 @@ def run(rounds, speed, seed, log):
         from nav_msgs.msg import Path
         from std_msgs.msg import String
 
-        import loctest_util as lu
-        import mbtest_util as mt
+        from summit_nav_common.testing import ground_truth as gt, waits
         from my_summit_localization.spots import load_spots
         from summit_xl_sim.srv import AddBox, RemoveBox
         from summit_xl_sim.world import World
@@ -89,15 +85,15 @@ def run(rounds, speed, seed, log):
         _, spots = load_spots(rospy.get_param("/patrol/spots_file"))
         # The nominal map frame (the spawn pose, 3 cm / 0.1 deg from the registered one):
         # registering takes longer than the patrol takes to send its first goals.
-        m_in_w = lu.spawn_in_world()
-        truth = mt.Truth(m_in_w)
+        m_in_w = gt.spawn_in_world()
+        truth = gt.Truth(m_in_w)
         world = World.from_yaml(rospy.get_param("/summit_xl_sim/world"))
 
         def clearance_at(mx, my):
-            return world.clearance(*mt.map_to_world(m_in_w, mx, my))
+            return world.clearance(*gt.map_to_world(m_in_w, mx, my))
 
-        plan = lu.Latest("/move_base/NavfnROS/plan", Path)
-        summary = lu.Latest("/patrol/summary", String)
+        plan = waits.Latest("/move_base/NavfnROS/plan", Path)
+        summary = waits.Latest("/patrol/summary", String)
         st = {"goal_no": 0, "goal_start": None, "box": None, "ended": [], "goals": {}}
         lock = threading.Lock()
 
@@ -120,7 +116,7 @@ def run(rounds, speed, seed, log):
         rospy.wait_for_service("/summit_xl_sim/add_box", 60.0)
         add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
         remove_box = rospy.ServiceProxy("/summit_xl_sim/remove_box", RemoveBox)
-        lu.wait_clock()
+        waits.wait_clock()
         truth.wait()
         boxes = []           # dicts: goal_no, map xy, min centre distance
         w0 = time.monotonic()
@@ -147,7 +143,7 @@ def run(rounds, speed, seed, log):
                 xy = box_point(path, pose[:2], clearance_at) if len(path) > 1 else None
                 if xy is None:
                     continue
-                wx, wy = mt.map_to_world(m_in_w, *xy)
+                wx, wy = gt.map_to_world(m_in_w, *xy)
                 name = f"patrol_box_{goal_no}"
                 heading = math.atan2(xy[1] - pose[1], xy[0] - pose[0])
                 resp = add_box(name, Pose2D(wx, wy, heading + m_in_w[2]), BOX_SIZE, BOX_SIZE)

@@ -37,7 +37,6 @@ import yaml
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 WS = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
-sys.path.insert(0, os.path.join(WS, "tools"))
 
 WAYPOINTS = os.path.join(WS, "src", "my_summit_navigation", "config", "race_track_waypoints.yaml")
 WORLD = os.path.join(WS, "src", "summit_xl_sim", "worlds", "race_track.yaml")
@@ -116,7 +115,7 @@ def footprint_edge(length=0.72, width=0.62, spacing=0.05):
 
 
 def run(laps, speed, seed, box, adaptive, capacity_wh, min_charges, log, health_dir):
-    from roslaunch_session import RoslaunchSession, wait_for_sim_time_param
+    from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for_sim_time_param
     waypoints, dock = load_route()
     battery_file = BATTERY
     tmp = None

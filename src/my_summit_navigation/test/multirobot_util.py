@@ -11,16 +11,13 @@ import threading
 import time
 
 import rospy
-from summit_nav_common.geometry import quaternion_to_yaw as yaw_of  # noqa: F401  (used by the tests)
-from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseActionResult
 from nav_msgs.msg import Odometry, Path
 from std_msgs.msg import UInt32
+from summit_nav_common.geometry import quaternion_to_yaw as yaw_of
 
 from my_summit_navigation.multi_robot import pose_error
-
-STATE_NAMES = {v: k for k, v in GoalStatus.__dict__.items() if k.isupper() and isinstance(v, int)}
 
 
 class RobotWatch:

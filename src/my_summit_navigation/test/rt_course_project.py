@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """rostest (tests/course_project.test): the course project end to end, by ground truth.
 
-The steps are tools/course_project.py's (shared with `make demo`): map the building with
+The steps are my_summit_navigation.course_project's (shared with `make demo`): map the building with
 slam_gmapping and the tour driver, save the map with map_saver, stop gmapping, start
 main.launch on the saved map with SLAM's last pose as amcl's initial pose, drive to the
 three spots and record each with /save_spot, then 'end'; drive back to the hall; call
@@ -34,12 +34,14 @@ import rospy
 import rostest
 import yaml
 
+from summit_nav_common.testing import roslaunch_session as rs
+from summit_xl_sim.sim import LaserParams
+from summit_xl_sim.worldgen import world_spots
+
+from my_summit_mapping.tour_recorder import TourRecorder
+from my_summit_navigation import course_project as cp
+
 WS = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
-sys.path.insert(0, os.path.join(WS, "tools"))
-sys.path.insert(0, os.path.join(WS, "src", "my_summit_mapping", "scripts"))
-import course_project as cp  # noqa: E402
-import roslaunch_session as rs  # noqa: E402
-from bench_slam_sim import TourRecorder  # noqa: E402
 
 
 class CpuHog:
@@ -52,10 +54,7 @@ class CpuHog:
         return self
 
     def share(self):
-        with open(f"/proc/{self.proc.pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-        cpu_s = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")   # utime + stime
-        return cpu_s / max(time.monotonic() - self.wall0, 1e-6)
+        return rs.cpu_seconds(self.proc.pid) / max(time.monotonic() - self.wall0, 1e-6)
 
     def __exit__(self, *exc):
         self.proc.kill()
@@ -145,11 +144,11 @@ class CourseProjectEndToEnd(unittest.TestCase):
         world = World.from_yaml(rospy.get_param("/summit_xl_sim/world"))
         with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
             max_urange = SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
-        with cp.CourseProject(work, progress) as project:
+        with cp.CourseProject(work, world_spots(cp.WORLD_DESCRIPTION), progress) as project:
             project.wait(lambda: project.pose() is not None, "waiting for ground truth", 60)
             # 1. map, save, stop gmapping
             recorder = project.map_building(TourRecorder)
-            quality = recorder.evaluate(world, max_urange)
+            quality = recorder.evaluate(world, max_urange, LaserParams())
             progress(f"map: ATE {quality['ate_m']:.3f} m, precision {quality['precision']:.3f}, "
                      f"recall {quality['recall']:.3f}")
             base = os.path.join(work, "my_map")

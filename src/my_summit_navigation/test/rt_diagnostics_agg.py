@@ -16,21 +16,16 @@ With move_base.launch (simulator, map_server, amcl, move_base; the aggregator co
    planned: "move_base: Global planner" or "move_base: Recovery" warns, and so do
    "/Navigation Stack/Planning", "/Navigation Stack" and the top level.
 """
-import os
 import statistics
-import sys
 import threading
 import unittest
 
-import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Twist
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 from summit_xl_sim.srv import AddBox  # noqa: E402
 
 NAV = "/Navigation Stack"
@@ -82,15 +77,15 @@ class DiagnosticsAgg(unittest.TestCase):
         max_sim = rospy.get_param("~max_sim_time", 120.0)
         frequency = rospy.get_param("/move_base/controller_frequency")
         w = AggWatch()
-        m_in_w = lu.map_in_world()
-        truth = mt.Truth(m_in_w)
-        lu.wait_clock()
-        c = mt.client()
+        m_in_w = gt.map_in_world()
+        truth = gt.Truth(m_in_w)
+        waits.wait_clock()
+        c = mb.client()
         truth.wait()
 
         # 1. the tree, amcl's check and the top level
-        lu.wait_for(lambda: w.get(STD) is not None and w.get(PLANNER) is not None, "amcl and move_base in "
-                    "/diagnostics_agg")
+        waits.wait_for(lambda: w.get(STD) is not None and w.get(PLANNER) is not None, "amcl and move_base in "
+                       "/diagnostics_agg")
         for child in CHILDREN:
             self.assertIsNotNone(w.get(f"{NAV}/{child}"), child)
         nav = w.get(NAV)
@@ -100,23 +95,23 @@ class DiagnosticsAgg(unittest.TestCase):
         self.assertEqual(w.get(STD).hardware_id, "None")
         for name in ("Controller", "Global planner", "Costmaps", "Recovery"):
             self.assertIsNotNone(w.get(f"{NAV}/Planning/move_base: {name}"), name)
-        lu.wait_for(lambda: w.top == DiagnosticStatus.OK and w.get(NAV).level == DiagnosticStatus.OK,
-                    "the top level OK once the stack is up")
+        waits.wait_for(lambda: w.top == DiagnosticStatus.OK and w.get(NAV).level == DiagnosticStatus.OK,
+                       "the top level OK once the stack is up")
         self.assertEqual(w.get(STD).message, "OK")
 
         # 2. a goal: the control rate while driving, then the planner's times
         cmd_times = []
         rospy.Subscriber(rospy.get_param("~cmd_vel_topic", "/summit_xl_control/cmd_vel"), Twist,
                          lambda _m: cmd_times.append(rospy.Time.now().to_sec()), queue_size=100)
-        lu.sleep_sim(1.0)
+        waits.sleep_sim(1.0)
         with w.lock:
             before = len(w.controller)
         t0 = rospy.Time.now().to_sec()
-        c.send_goal(mt.make_goal(*goal))
-        state, text = mt.wait_result(c, max_sim)
+        c.send_goal(mb.make_goal(*goal))
+        state, text = mb.wait_result(c, max_sim)
         t1 = rospy.Time.now().to_sec()
         self.assertEqual(state, "SUCCEEDED", text)
-        lu.sleep_sim(1.5)   # the last report of the drive
+        waits.sleep_sim(1.5)   # the last report of the drive
         counted = sum(t0 <= t <= t1 for t in cmd_times) / (t1 - t0)   # [Hz] cycles by the test's count
         with w.lock:
             driving = [(level, float(v["rate [Hz]"]), int(v["cycles"])) for level, v in w.controller[before:]
@@ -131,7 +126,7 @@ class DiagnosticsAgg(unittest.TestCase):
             self.assertEqual(level, DiagnosticStatus.WARN if rate < WARN_BELOW * frequency else DiagnosticStatus.OK,
                              f"Controller level at {rate} Hz")
         rospy.loginfo(f"median control rate while driving: {statistics.median(r for _, r, _ in driving):.1f} Hz")
-        lu.sleep_sim(2.0)
+        waits.sleep_sim(2.0)
         plan = w.values(PLANNER)
         self.assertGreaterEqual(int(plan["plans"]), 1)
         self.assertGreater(float(plan["last plan time [s]"]), 0.0)
@@ -141,9 +136,9 @@ class DiagnosticsAgg(unittest.TestCase):
         rospy.wait_for_service("/summit_xl_sim/add_box", 30.0)
         add_box = rospy.ServiceProxy("/summit_xl_sim/add_box", AddBox)
         here = truth.pose   # map frame
-        mt.ring_robot(add_box, here, m_in_w, rospy.get_param("~ring_inner"), rospy.get_param("~ring_wall"))
-        lu.sleep_sim(2.0)   # the boxes in the costmaps
-        c.send_goal(mt.make_goal(here[0] - 2.5, here[1], 0.0))
+        mb.ring_robot(add_box, here, m_in_w, rospy.get_param("~ring_inner"), rospy.get_param("~ring_wall"))
+        waits.sleep_sim(2.0)   # the boxes in the costmaps
+        c.send_goal(mb.make_goal(here[0] - 2.5, here[1], 0.0))
 
         def warned():
             planning, group = w.get(f"{NAV}/Planning"), w.get(NAV)
@@ -151,7 +146,7 @@ class DiagnosticsAgg(unittest.TestCase):
             return planning.level >= DiagnosticStatus.WARN and group.level >= DiagnosticStatus.WARN and \
                 w.top is not None and w.top >= DiagnosticStatus.WARN and \
                 any(s.level == DiagnosticStatus.WARN for s in cause)
-        lu.wait_for(warned, "Planning, Navigation Stack and the top level warning")
+        waits.wait_for(warned, "Planning, Navigation Stack and the top level warning")
         rospy.loginfo(f"warned: planner '{w.get(PLANNER).message}', recovery '{w.get(RECOVERY).message}', "
                       f"top level {w.top}")
         c.cancel_all_goals()

@@ -13,20 +13,16 @@ of them may move the robot, and each checks that it did not:
   nothing sent), no move_base behind the action name (exit 1).
 The driving cases (preemption, the client driving to x y yaw) are rt_get_coordinates_drives.py.
 """
-import os
 import subprocess
 import sys
 import unittest
 
-import rospkg
 import rospy
 import rostest
 
 from my_summit_navigation.srv import MyServiceMessage
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 SERVICE_WAIT = 120.0   # [s] wall: the stack may take a while to come up under load
 NO_SERVER_TIMEOUT = 2.0   # [s] the gc_no_move_base server's ~server_timeout (the .test)
@@ -50,15 +46,15 @@ class GetCoordinatesBadInput(unittest.TestCase):
         cls.missing = rospy.get_param("~missing_file")
         cls.malformed = rospy.get_param("~malformed_file")
         cls.hall_file = rospy.get_param("~hall_file")
-        cls.rosout = lu.RosoutWatcher()
-        cls.truth = mt.Truth(lu.map_in_world())
-        lu.wait_clock()
+        cls.rosout = waits.RosoutWatcher()
+        cls.truth = gt.Truth(gt.map_in_world())
+        waits.wait_clock()
         cls.srv = {}
         for name in ("/get_coordinates", "/missing/get_coordinates", "/malformed/get_coordinates",
                      "/no_move_base/get_coordinates", "/hall/get_coordinates"):
             rospy.wait_for_service(name, SERVICE_WAIT)
             cls.srv[name] = rospy.ServiceProxy(name, MyServiceMessage)
-        mt.client()               # move_base is up: the refusals below are not for want of it
+        mb.client()               # move_base is up: the refusals below are not for want of it
         cls.truth.wait()
 
     def setUp(self):
@@ -67,7 +63,7 @@ class GetCoordinatesBadInput(unittest.TestCase):
 
     def assert_still(self):
         """The robot has not moved during the test, nor collided."""
-        moved = lu.pose_error(self.truth.pose, self.start)[0]
+        moved = gt.pose_error(self.truth.pose, self.start)[0]
         self.assertLess(moved, STILL, f"the robot moved {moved:.3f} m")
         self.assertEqual(self.truth.collisions, self.collisions, "the robot collided")
 

@@ -15,13 +15,11 @@ map frame of the committed map): the pose reached, and no collision.
   0.3 m / 0.3 rad).
 """
 import math
-import os
 import subprocess
 import sys
 import threading
 import unittest
 
-import rospkg
 import rospy
 import rostest
 from geometry_msgs.msg import Pose2D, PoseWithCovarianceStamped
@@ -31,9 +29,8 @@ from summit_xl_sim.srv import SetRobotPose
 from my_summit_localization.spots import load_spots
 from my_summit_navigation.srv import MyServiceMessage
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.geometry import compose, quaternion_to_yaw
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 SERVICE_WAIT = 120.0   # [s] wall: the stack may take a while to come up under load
 XY_TOL, YAW_TOL = 0.3, 0.3   # [m], [rad] by ground truth
@@ -57,10 +54,10 @@ class GetCoordinatesDrives(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("get_coordinates_drives_test")
         _, cls.hall = load_spots(rospy.get_param("~hall_file"))
-        cls.truth = mt.Truth(lu.map_in_world())
-        cls.amcl_pose = lu.Latest("/amcl_pose", PoseWithCovarianceStamped)
+        cls.truth = gt.Truth(gt.map_in_world())
+        cls.amcl_pose = waits.Latest("/amcl_pose", PoseWithCovarianceStamped)
         cls.init_pub = rospy.Publisher("/initialpose", PoseWithCovarianceStamped, queue_size=5)
-        lu.wait_clock()
+        waits.wait_clock()
         for name in ("/hall/get_coordinates", "/summit_xl_sim/set_robot_pose", "/request_nomotion_update",
                      "/move_base/clear_costmaps"):
             rospy.wait_for_service(name, SERVICE_WAIT)
@@ -68,7 +65,7 @@ class GetCoordinatesDrives(unittest.TestCase):
         cls.teleport = rospy.ServiceProxy("/summit_xl_sim/set_robot_pose", SetRobotPose)
         cls.nomotion = rospy.ServiceProxy("/request_nomotion_update", Empty)
         cls.clear_costmaps = rospy.ServiceProxy("/move_base/clear_costmaps", Empty)
-        cls.move_base = mt.client()
+        cls.move_base = mb.client()
         cls.truth.wait()
         cls.amcl_pose.wait(SERVICE_WAIT)
 
@@ -76,10 +73,10 @@ class GetCoordinatesDrives(unittest.TestCase):
         """Stop whatever drives the robot and put it at pose (x, y, yaw) [m, m, rad] in the
         map frame: ground truth, amcl and the costmaps."""
         self.move_base.cancel_all_goals()
-        lu.sleep_sim(1.0)                     # move_base stops; the base brakes
-        r = self.teleport("", Pose2D(*lu.compose(self.truth.m_in_w, pose)))
+        waits.sleep_sim(1.0)                     # move_base stops; the base brakes
+        r = self.teleport("", Pose2D(*compose(self.truth.m_in_w, pose)))
         self.assertTrue(r.success, r.message)
-        lu.sleep_sim(0.3)
+        waits.sleep_sim(0.3)
         msg = PoseWithCovarianceStamped()
         msg.header.frame_id, msg.header.stamp = "map", rospy.Time.now()
         msg.pose.pose.position.x, msg.pose.pose.position.y = pose[0], pose[1]
@@ -95,18 +92,18 @@ class GetCoordinatesDrives(unittest.TestCase):
             self.nomotion()
             self.amcl_pose.wait(30.0, after=n)
         self.clear_costmaps()                 # the marks seen from where the robot was
-        lu.sleep_sim(1.0)                     # the local costmap fills again from the laser
+        waits.sleep_sim(1.0)                     # the local costmap fills again from the laser
         p = self.amcl_pose.msg.pose.pose
-        est = (p.position.x, p.position.y, lu.yaw_of(p.orientation))
-        err = lu.pose_error(est, self.truth.pose)
-        self.assertLess(lu.pose_error(self.truth.pose, pose)[0], 0.02, "set_robot_pose did not place the robot")
+        est = (p.position.x, p.position.y, quaternion_to_yaw(p.orientation))
+        err = gt.pose_error(est, self.truth.pose)
+        self.assertLess(gt.pose_error(self.truth.pose, pose)[0], 0.02, "set_robot_pose did not place the robot")
         self.assertLess(err[0], AMCL_TOL, f"amcl {err[0]:.3f} m off the truth after /initialpose")
         self.collisions = self.truth.collisions
 
     def assert_at(self, pose, what):
         """Ground truth within XY_TOL / YAW_TOL of pose, and no collision since put_robot."""
-        lu.sleep_sim(0.5)
-        err_xy, err_yaw = lu.pose_error(self.truth.pose, pose)
+        waits.sleep_sim(0.5)
+        err_xy, err_yaw = gt.pose_error(self.truth.pose, pose)
         print(f"{what}: final error {err_xy:.3f} m {err_yaw:.3f} rad", flush=True)
         self.assertLessEqual(err_xy, XY_TOL, what)
         self.assertLessEqual(err_yaw, YAW_TOL, what)
@@ -123,7 +120,7 @@ class GetCoordinatesDrives(unittest.TestCase):
         thread = threading.Thread(target=older, daemon=True)
         thread.start()
         here = self.truth.pose
-        lu.wait_for(lambda: lu.pose_error(self.truth.pose, here)[0] > 1.0, "the robot driving toward 'far'", 200.0)
+        waits.wait_for(lambda: gt.pose_error(self.truth.pose, here)[0] > 1.0, "the robot driving toward 'far'", 200.0)
         self.assertNotIn("far", answers, "the first call should still be running")
         t0 = rospy.Time.now()
         r = self.hall_srv("near")

@@ -8,21 +8,17 @@ answer navigation_successfull true with "OK", and then the robot must stand with
 map frame with loctest_util.map_in_world); zero collisions over the whole run.
 """
 import math
-import os
 import sys
 import time
 import unittest
 
-import rospkg
 import rospy
 import rostest
 
 from my_summit_localization.spots import load_spots
 from my_summit_navigation.srv import MyServiceMessage
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 SERVICE_WAIT = 120.0   # [s] wall: the stack may take a while to come up under load
 
@@ -34,13 +30,13 @@ class GetCoordinatesSpots(unittest.TestCase):
         xy_tol = rospy.get_param("~xy_tolerance")
         yaw_tol = rospy.get_param("~yaw_tolerance")
         _, spots = load_spots(rospy.get_param("~spots_file"))
-        truth = mt.Truth(lu.map_in_world())
-        lu.wait_clock()
+        truth = gt.Truth(gt.map_in_world())
+        waits.wait_clock()
         rospy.wait_for_service("/get_coordinates", SERVICE_WAIT)
         get_coordinates = rospy.ServiceProxy("/get_coordinates", MyServiceMessage)
-        mt.client()                # move_base is up
+        mb.client()                # move_base is up
         start = truth.wait()
-        lu.sleep_sim(2.0)          # amcl settles on its first scans
+        waits.sleep_sim(2.0)          # amcl settles on its first scans
         self.assertLess(start[0], 5.0, "the robot should start in the main hall")
         rows = []
         for label in labels:
@@ -49,10 +45,10 @@ class GetCoordinatesSpots(unittest.TestCase):
             resp = get_coordinates(label)
             took = (rospy.Time.now() - t0).to_sec()
             wall = time.monotonic() - w0
-            lu.sleep_sim(0.5)
+            waits.sleep_sim(0.5)
             end = truth.pose
             spot = spots[label]
-            err_xy, err_yaw = lu.pose_error(end, (spot.x, spot.y, spot.yaw))
+            err_xy, err_yaw = gt.pose_error(end, (spot.x, spot.y, spot.yaw))
             rows.append((label, resp.navigation_successfull, resp.message, took, err_xy, err_yaw))
             print(f"GET_COORDINATES label={label} ok={resp.navigation_successfull} message={resp.message!r} "
                   f"sim_time_s={took:.1f} wall_time_s={wall:.1f} final_xy_error_m={err_xy:.3f} "

@@ -22,7 +22,6 @@ Prints one LESSON_GOAL line per goal.
 import glob
 import math
 import os
-import sys
 import time
 import unittest
 
@@ -30,8 +29,7 @@ import rospkg
 import rospy
 import rostest
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 SETTLE = 1.0        # [s] sim: after a result, before the pose is judged (the robot has stopped)
 LOG_WAIT = 30.0     # [s] wall: for the node's log file to hold its start-up lines
@@ -69,10 +67,10 @@ class LessonNavigationStage(unittest.TestCase):
         goal_timeout = float(rospy.get_param("~goal_timeout"))
         node = rospy.get_param("~node", "move_base_node")
         expect_log = rospy.get_param("~expect_log", [])
-        truth = mt.Truth(WORLD_IS_MAP)
-        mt.lu.wait_clock()
+        truth = gt.Truth(WORLD_IS_MAP)
+        waits.wait_clock()
         truth.wait()
-        c = mt.client("move_base")
+        c = mb.client("move_base")
         missing = missing_log_lines(node, expect_log)
         self.assertEqual(missing, [], f"{node}'s log lacks these start-up lines: {missing}")
 
@@ -80,12 +78,12 @@ class LessonNavigationStage(unittest.TestCase):
         for i, g in enumerate(goals):
             goal = (float(g["x"]), float(g["y"]), math.radians(float(g["theta"])))
             t0 = rospy.Time.now().to_sec()
-            c.send_goal(mt.make_goal(*goal))
-            state, text = mt.wait_result(c, goal_timeout)
+            c.send_goal(mb.make_goal(*goal))
+            state, text = mb.wait_result(c, goal_timeout)
             took = rospy.Time.now().to_sec() - t0
-            mt.lu.sleep_sim(SETTLE)
+            waits.sleep_sim(SETTLE)
             pose = truth.pose
-            err_xy, err_yaw = mt.lu.pose_error(pose, goal)
+            err_xy, err_yaw = gt.pose_error(pose, goal)
             print(f"LESSON_GOAL i={i} goal=({goal[0]:.2f},{goal[1]:.2f},{g['theta']}deg) state={state} "
                   f"sim_s={took:.1f} xy_error_m={err_xy:.3f} yaw_error_rad={err_yaw:.3f} "
                   f"collisions={truth.collisions} text={text!r}", flush=True)

@@ -35,8 +35,6 @@ that no robot drove farther.
 Prints one MULTI_ROBOT line per robot (parsed by bench_multi_robot.py).
 """
 import math
-import os
-import sys
 import threading
 import time
 import unittest
@@ -47,12 +45,12 @@ from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import Pose2D
 from move_base_msgs.msg import MoveBaseAction
 from summit_nav_common.ros.action_client import SimpleActionClient
+from summit_nav_common.testing.move_base_client import STATE_NAMES
 
 from my_summit_navigation.goals import move_base_goal
 from my_summit_navigation.multi_robot import goal_spot
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import multirobot_util as mu  # noqa: E402
+import multirobot_util as mu  # this test's sibling (a rostest node runs from its own folder)
 
 SETTLE = 1.0      # [s] sim: after the last result, before the poses are judged
 CELL = 0.05       # [m] the costmaps' resolution: a moved goal lies on a cell centre
@@ -157,7 +155,7 @@ class MultiRobotGoals(unittest.TestCase):
                 driven_to = (w.plan_end[0], w.plan_end[1], goal[2])
             err_xy, err_yaw = w.error_to(driven_to) if w.pose is not None else (math.inf, math.inf)
             state, text, stamp = w.result if w.result else (None, "no result", math.nan)
-            print(f"MULTI_ROBOT robot={w.name} state={mu.STATE_NAMES.get(state, state)} "
+            print(f"MULTI_ROBOT robot={w.name} state={STATE_NAMES.get(state, state)} "
                   f"xy_error_m={err_xy:.3f} yaw_error_rad={err_yaw:.3f} collisions={w.collisions} "
                   f"result_sim_s={stamp - t0:.1f} path_m={w.path_length:.1f} loc_error_max_m={w.loc_error_max:.3f} "
                   f"min_robot_distance_m={closest.min_distance:.2f} "
@@ -166,7 +164,7 @@ class MultiRobotGoals(unittest.TestCase):
             if w.name in missing:
                 failures.append(f"{w.name}: no move_base result within {timeout:.0f} s wall")
             elif state != GoalStatus.SUCCEEDED:
-                failures.append(f"{w.name}: move_base ended {mu.STATE_NAMES.get(state, state)}: {text}")
+                failures.append(f"{w.name}: move_base ended {STATE_NAMES.get(state, state)}: {text}")
             if err_xy > xy_tol or err_yaw > yaw_tol:
                 where = "its goal" if driven_to is goal else "the end of its plan"
                 failures.append(f"{w.name}: {err_xy:.3f} m / {err_yaw:.3f} rad from {where} by ground truth "

@@ -12,11 +12,9 @@ reachable spot was visited within 0.3 m by ground truth; the robot ends within 0
 where it started; zero collisions.
 """
 import math
-import os
 import sys
 import unittest
 
-import rospkg
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
@@ -26,9 +24,7 @@ from std_srvs.srv import Trigger
 
 from my_summit_localization.spots import load_spots
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, waits
 
 REACHABLE = ("table", "room", "turtle")
 TOL = 0.3   # [m] by ground truth
@@ -41,11 +37,11 @@ class PatrolBlocked(unittest.TestCase):
         # The nominal map frame (the spawn pose; registration would take this node longer
         # to start than the patrol takes to its first spot). The patrol's home is where
         # the robot stood when it started: the map's origin.
-        truth = mt.Truth(lu.spawn_in_world())
-        lu.wait_clock()
+        truth = gt.Truth(gt.spawn_in_world())
+        waits.wait_clock()
         truth.wait()
         start = (0.0, 0.0, 0.0)
-        summary = lu.Latest("/patrol/summary", String)
+        summary = waits.Latest("/patrol/summary", String)
         visited = set()
 
         def near(label):
@@ -59,7 +55,7 @@ class PatrolBlocked(unittest.TestCase):
 
         def round_done():
             return visited == set(REACHABLE)
-        lu.wait_for(round_done, "the robot at table, room and turtle (a patrol round)", timeout_wall=450.0)
+        waits.wait_for(round_done, "the robot at table, room and turtle (a patrol round)", timeout_wall=450.0)
         rospy.wait_for_service("/patrol/return_home", 10.0)
         resp = rospy.ServiceProxy("/patrol/return_home", Trigger)()
         self.assertTrue(resp.success, resp.message)
@@ -67,7 +63,7 @@ class PatrolBlocked(unittest.TestCase):
         text = msg.data
         rospy.loginfo(f"patrol summary: {text}")
         print(f"PATROL summary={text!r} visited={sorted(visited)} collisions={truth.collisions}", flush=True)
-        lu.sleep_sim(1.0)
+        waits.sleep_sim(1.0)
         end = truth.pose
         self.assertEqual(set(REACHABLE), visited, f"visited {sorted(visited)}; summary: {text}")
         self.assertIn("'in_desk' (move_base aborted", text)

@@ -17,12 +17,9 @@ every waypoint reached, nothing skipped, one dock visit; zero collisions.
 """
 import json
 import math
-import os
-import sys
 import threading
 import unittest
 
-import rospkg
 import rospy
 import rostest
 import yaml
@@ -32,9 +29,7 @@ from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import String
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("my_summit_path_planning"), "test"))
-import mbtest_util as mt  # noqa: E402
-from mbtest_util import lu  # noqa: E402
+from summit_nav_common.testing import ground_truth as gt, waits
 
 TOL = 0.35        # [m] a reached waypoint by ground truth (xy_goal_tolerance 0.2 + amcl's error)
 DOCK_TOL = 0.3    # [m] the simulator charges within this of the dock
@@ -51,8 +46,8 @@ class RaceTrack(unittest.TestCase):
         self.wps = [(float(w["x"]), float(w["y"])) for w in route["waypoints"]]
         d = route["dock"]
         self.dock = (float(d["x"]), float(d["y"]))
-        self.truth = mt.Truth((0.0, 0.0, 0.0))   # the race track's map is its world
-        lu.wait_clock()
+        self.truth = gt.Truth((0.0, 0.0, 0.0))   # the race track's map is its world
+        waits.wait_clock()
         self.truth.wait()
         self.lock = threading.Lock()
         self.goals = []          # [(sim t, target: waypoint index or 'dock' or None)]
@@ -61,7 +56,7 @@ class RaceTrack(unittest.TestCase):
         self.current_id = None
         self.final = {}          # goal id -> final actionlib status
         self.target_of = {}      # goal id -> its target (a result is matched by its goal's id)
-        self.summary = lu.Latest("/auto_navigator/summary", String)
+        self.summary = waits.Latest("/auto_navigator/summary", String)
         rospy.Subscriber("/move_base/goal", MoveBaseActionGoal, self.on_goal, queue_size=10)
         rospy.Subscriber("/move_base/result", MoveBaseActionResult, self.on_result, queue_size=10)
 
@@ -100,12 +95,12 @@ class RaceTrack(unittest.TestCase):
         summary reached this test before the last waypoint's SUCCEEDED, and the lap
         looked one waypoint short (12 of 13).
         """
-        lu.wait_for(lambda: self.summary.msg is not None, "/auto_navigator/summary", WALL_LIMIT)
+        waits.wait_for(lambda: self.summary.msg is not None, "/auto_navigator/summary", WALL_LIMIT)
 
         def all_final():
             with self.lock:
                 return all(gid in self.final for gid in self.target_of)
-        lu.wait_for(all_final, "a result for every goal sent", 30.0)
+        waits.wait_for(all_final, "a result for every goal sent", 30.0)
         return json.loads(self.summary.msg.data)
 
     def check_lap(self, summary, dock_visits):
@@ -128,11 +123,11 @@ class RaceTrack(unittest.TestCase):
             return
         self.assertEqual(mode, "battery")
         from summit_xl_sim.srv import SetBattery
-        battery = lu.Latest("/battery_state", BatteryState)
-        agg = lu.Latest("/diagnostics_agg", DiagnosticArray)
+        battery = waits.Latest("/battery_state", BatteryState)
+        agg = waits.Latest("/diagnostics_agg", DiagnosticArray)
         rospy.wait_for_service("/summit_xl_sim/set_battery", 60.0)
         set_battery = rospy.ServiceProxy("/summit_xl_sim/set_battery", SetBattery)
-        lu.wait_for(lambda: len({i for i, _ in self.reached}) >= 2, "two waypoints reached", WALL_LIMIT)
+        waits.wait_for(lambda: len({i for i, _ in self.reached}) >= 2, "two waypoints reached", WALL_LIMIT)
         with self.lock:
             interrupted, interrupted_id = self.current, self.current_id
         self.assertIsInstance(interrupted, int, "the goal active when the battery was set low")
@@ -147,7 +142,7 @@ class RaceTrack(unittest.TestCase):
             top = levels.get("/Navigation Stack")
             bat = [lv for name, lv in levels.items() if name.startswith("/Navigation Stack/") and "Battery" in name]
             return top is not None and top >= DiagnosticStatus.WARN and any(lv >= DiagnosticStatus.WARN for lv in bat)
-        lu.wait_for(stack_warns, "/diagnostics_agg: Navigation Stack at WARN with its battery check", 120.0)
+        waits.wait_for(stack_warns, "/diagnostics_agg: Navigation Stack at WARN with its battery check", 120.0)
 
         charged_at = {}
 
@@ -159,7 +154,7 @@ class RaceTrack(unittest.TestCase):
             charged_at["d"] = math.hypot(x - self.dock[0], y - self.dock[1])
             charged_at["t"] = rospy.Time.now().to_sec()
             return True
-        lu.wait_for(charging_at_dock, "the robot charging at the dock", WALL_LIMIT)
+        waits.wait_for(charging_at_dock, "the robot charging at the dock", WALL_LIMIT)
         self.assertLessEqual(charged_at["d"], DOCK_TOL, "charging, by ground truth this far from the dock")
         summary = self.wait_summary()
         with self.lock:

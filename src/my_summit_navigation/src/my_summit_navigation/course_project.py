@@ -1,6 +1,7 @@
 """The course project end to end, on a ROS master where the simulator already runs.
 
-Shared by the end-to-end rostest (tests/course_project.test) and `make demo`. It does
+Shared by the end-to-end rostest (tests/course_project.test) and `make demo`
+(tools/demo.py). It does
 what the student does, command for command, with the tour driver and move_base standing
 in for the hands on the keyboard:
 
@@ -20,7 +21,8 @@ Every launch runs in a process group of its own and is stopped by its PID, also 
 step fails (CourseProject is a context manager). rospy must be initialised in this
 process, on simulated time, before the steps run.
 
-The spots are the world's (``spots:`` of the world description, world frame). The fresh
+The spots are the world's (``spots:`` of the world description, world frame; the caller
+reads them with summit_xl_sim.worldgen.world_spots and hands them in). The fresh
 map's frame is where the robot stood when mapping began (gmapping's convention), the
 simulator's spawn pose: a spot's map-frame pose for driving there is the world pose seen
 from the spawn pose. Ground truth is judged in the world frame.
@@ -28,28 +30,20 @@ from the spawn pose. Ground truth is judged in the world frame.
 import math
 import os
 import subprocess
-import sys
 import threading
 import time
 
-WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from roslaunch_session import stop_process_tree  # noqa: E402
+import rospkg
 from summit_nav_common.geometry import (compose, quaternion_to_yaw as yaw_of, relative,  # noqa: F401
-                                       wrap_angle as wrap, yaw_to_quaternion_zw)
+                                        wrap_angle as wrap, yaw_to_quaternion_zw)
+from summit_nav_common.testing.roslaunch_session import stop_process_tree
 
-TOUR_FILE = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building_tour.yaml")
-WORLD_DESCRIPTION = os.path.join(WS, "src", "summit_xl_sim", "worlds", "course_building.world.yaml")
+SIM_WORLDS = os.path.join(rospkg.RosPack().get_path("summit_xl_sim"), "worlds")
+TOUR_FILE = os.path.join(SIM_WORLDS, "course_building_tour.yaml")
+WORLD_DESCRIPTION = os.path.join(SIM_WORLDS, "course_building.world.yaml")   # its spots: world_spots
 SPOT_ORDER = ("table", "room", "turtle")   # the course's calls: hall -> fetch room table -> centre -> poster
 RECORD_ORDER = ("room", "turtle", "table")  # the order the spots are recorded in (course step 2)
 EYE_XY_TOL, EYE_YAW_TOL, EYE_TRIES = 0.15, 0.12, 2   # [m], [rad]: "there" by eye (above the goal tolerance)
-
-
-def world_spots(path=WORLD_DESCRIPTION):
-    """{label: (x, y, yaw [rad])} of the world description's spots (world frame)."""
-    from summit_xl_sim.worldgen import load_description
-    doc = load_description(path)
-    return {k: (v[0], v[1], math.radians(v[2])) for k, v in doc["spots"].items()}
 
 
 SKIP_REPORTING_NODES = ("slam_gmapping", "amcl", "move_base")
@@ -63,10 +57,12 @@ class CourseProject:
     """Runs the course's steps on the current master; see the module doc string.
 
     workdir: where the map and spots.txt are written and the launch logs go.
+    spots: {label: (x [m], y [m], yaw [rad])} in the world frame (world_spots of
+    WORLD_DESCRIPTION).
     progress(text): called with one line per event (the caller adds the times).
     """
 
-    def __init__(self, workdir, progress=print, wall_limit=900.0):
+    def __init__(self, workdir, spots, progress=print, wall_limit=900.0):
         import rospy
         from nav_msgs.msg import Odometry
         from std_msgs.msg import UInt32
@@ -79,7 +75,7 @@ class CourseProject:
         self.truth = []               # (t, x, y, yaw) world frame
         self.collisions = 0
         self.spawn = tuple(float(rospy.get_param("/summit_xl_sim/" + k)) for k in ("x", "y", "yaw"))
-        self.spots = world_spots()
+        self.spots = dict(spots)
         self._tf = None               # tf2 buffer for amcl_pose (made once navigation starts)
         self._subs = [rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=50),
                       rospy.Subscriber("/collisions", UInt32, self._on_coll, queue_size=5)]
@@ -215,7 +211,7 @@ class CourseProject:
                                stderr=subprocess.STDOUT, text=True, timeout=120)
         if saver.returncode != 0 or not os.path.exists(base + ".yaml"):
             raise StepFailed(f"map_saver -f {base} failed: {saver.stdout[-1500:]}")
-        self.progress(f"map saved with map_saver -f {os.path.relpath(base, WS)}")
+        self.progress(f"map saved with map_saver -f {base}")
         end = time.monotonic() + 30.0
         while True:
             try:
