@@ -172,3 +172,16 @@ def test_simulation_imu_follows_the_truth_and_leaves_the_other_draws_alone():
             assert samples[-1].linear_acceleration[1] == pytest.approx(0.6 * 0.8 - 0.36 * 0.05, abs=0.1)
     assert runs[0][0] == runs[1][0] and runs[0][1] == runs[1][1]
     np.testing.assert_array_equal(runs[0][2], runs[1][2])
+
+
+def test_imu_mount_comes_from_the_urdf():
+    from summit_xl_sim.description import DescriptionError, fixed_joints, imu_mount
+    urdf = os.path.join(os.path.dirname(__file__), "..", "urdf", "summit_xl.urdf")
+    with open(urdf) as f:
+        joints = fixed_joints(f.read(), urdf)
+    assert imu_mount(joints) == pytest.approx((0.10, 0.05, 0.0))
+    with pytest.raises(DescriptionError, match="no chain of fixed joints from 'base_footprint' to 'imu_link'"):
+        imu_mount([j for j in joints if j[1] != "imu_link"])
+    tilted = [(p, c, xyz, (0.3, 0.0, 0.0) if c == "imu_link" else rpy) for p, c, xyz, rpy in joints]
+    with pytest.raises(DescriptionError, match="'imu_link' is not mounted level"):
+        imu_mount(tilted)
