@@ -7,7 +7,7 @@ documented on its wiki and in its params/ekf_template.yaml):
 
   frequency 30 [Hz]; sensor_timeout 1/frequency [s]; two_d_mode false;
   map_frame map, odom_frame odom, base_link_frame base_link, world_frame = odom_frame;
-  publish_tf true; publish_acceleration false; print_diagnostics true;
+  publish_tf true; publish_acceleration false; print_diagnostics true; predict_to_current_time false;
   transform_time_offset 0 [s], transform_timeout 0 [s]; gravitational_acceleration 9.80665;
   process_noise_covariance: diagonal 0.05 0.05 0.06 0.03 0.03 0.06 0.025 0.025 0.04 0.01
   0.01 0.02 0.01 0.01 0.015 (per second); initial_estimate_covariance: diagonal 1e-9.
@@ -46,8 +46,8 @@ THRESHOLDS = {"pose_rejection_threshold": (("odom", "pose", "imu"), "pose_thresh
 UNSUPPORTED = {"use_control": False, "smooth_lagged_data": False, "dynamic_process_noise_covariance": False,
                "reset_on_time_jump": False, "disabled_at_startup": False}
 # robot_localization parameters read and accepted without effect here (debug output)
-IGNORED = ("debug", "debug_out_file", "history_length", "permit_corrected_publication",
-           "predict_to_current_time", "control_config", "control_timeout", "stamped_control",
+IGNORED = ("debug", "debug_out_file", "history_length", "permit_corrected_publication", "silent_tf_failure",
+           "control_config", "control_timeout", "stamped_control",
            "acceleration_limits", "deceleration_limits", "acceleration_gains", "deceleration_gains",
            "base_link_frame_output")
 
@@ -82,6 +82,7 @@ class EkfConfig:
     print_diagnostics: bool = True
     transform_time_offset: float = 0.0   # [s] added to the tf's stamp
     transform_timeout: float = 0.0       # [s] how long a tf lookup waits
+    predict_to_current_time: bool = False   # publish the state predicted to now, not to the last measurement
     gravitational_acceleration: float = STANDARD_GRAVITY   # [m/s^2]
     process_noise_covariance: np.ndarray = None     # (15, 15) per second
     initial_estimate_covariance: np.ndarray = None  # (15, 15)
@@ -206,6 +207,7 @@ def read_config(params):
     c.publish_tf = _bool(params, "publish_tf", True)
     c.publish_acceleration = _bool(params, "publish_acceleration", False)
     c.print_diagnostics = _bool(params, "print_diagnostics", True)
+    c.predict_to_current_time = _bool(params, "predict_to_current_time", False)
     c.transform_time_offset = _float(params, "transform_time_offset", 0.0)
     c.transform_timeout = _float(params, "transform_timeout", 0.0, nonnegative=True)
     c.gravitational_acceleration = _float(params, "gravitational_acceleration", STANDARD_GRAVITY)
@@ -240,7 +242,7 @@ def known_names(params):
     names = {"frequency", "sensor_timeout", "two_d_mode", "map_frame", "odom_frame", "base_link_frame",
              "world_frame", "publish_tf", "publish_acceleration", "print_diagnostics", "transform_time_offset",
              "transform_timeout", "gravitational_acceleration", "process_noise_covariance",
-             "initial_estimate_covariance", "diagnostic_period"} | set(UNSUPPORTED) | set(IGNORED)
+             "initial_estimate_covariance", "diagnostic_period", "predict_to_current_time"} | set(UNSUPPORTED) | set(IGNORED)
     for key in params:
         m = SENSOR_KEY.match(str(key))
         if m and not m.group(3):
