@@ -88,7 +88,10 @@ def simulate_tour(sim_seed):
 
 def load_tour(sim_seed, cache):
     """simulate_tour(sim_seed), from the cache when there."""
-    path = os.path.join(cache, f"tour_{sim_seed}.npz") if cache else None
+    from summit_xl_sim.sim import default_odom_model
+    # The odometry model is part of the key: a tour cached under another model (the
+    # simulator's default was ideal before odom_model existed) must not be reused.
+    path = os.path.join(cache, f"tour_{sim_seed}_{default_odom_model('diff')}.npz") if cache else None
     if path and os.path.exists(path):
         with np.load(path) as z:
             return {k: z[k] for k in z.files}
