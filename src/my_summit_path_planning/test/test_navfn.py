@@ -91,6 +91,31 @@ def test_compiled_dijkstra_equals_scipys_to_the_bit(seed):
                                    sp_dijkstra(ref, directed=True, indices=src, limit=limit))
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_grid_dijkstra_equals_scipys_on_the_matrix_to_the_bit(seed):
+    """The planner's search on the grid itself (weights computed where used, no CSR
+    matrix) gives SciPy's Dijkstra distances on GridGraph's matrix to the bit: plain, and
+    on A*'s reduced weights (the heuristic's rounding leaves zero-weight edges), with and
+    without a limit."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import dijkstra as sp_dijkstra
+    rng = np.random.default_rng(seed)
+    g = GridGraph(navfn_costs(random_costs(rng, 45, 52), True))
+    m = g.matrix
+    heur_nodes = rng.uniform(0.0, 3e3, g.cells.size)
+    heur = np.zeros(g.shape[0] * g.shape[1])
+    heur[g.cells] = heur_nodes
+    for h_nodes, h_cells in ((None, None), (heur_nodes, heur)):
+        data = m.data if h_nodes is None else _reduced_weights(m.indptr, m.indices, m.data, h_nodes)
+        ref = sp.csr_matrix((data, m.indices, m.indptr), shape=m.shape)
+        src = int(rng.integers(g.cells.size))
+        for limit in (np.inf, 2e3, 0.0):
+            want = sp_dijkstra(ref, directed=True, indices=src, limit=limit)
+            got = g._search(int(g.cells[src]), h_cells, limit)
+            npt.assert_array_equal(got[g.cells], want)
+            assert np.isinf(np.delete(got, g.cells)).all()
+
+
 def test_navfn_costs_translation():
     c = np.array([[0, 100, 252, 253, 254, 255]], np.uint8)
     out = navfn_costs(c, allow_unknown=True)

@@ -140,3 +140,95 @@ int snc_dijkstra(const int64_t *indptr, const int32_t *indices, const double *da
     free(settled);
     return 0;
 }
+
+/* The same Dijkstra on the grid itself, edge weights computed where they are used (no
+   CSR matrix: for a 440 x 320 map the matrix and A*'s reduced copy took ~16 MB a plan).
+   cost (h x w): cell costs, +inf where forbidden; each cell's 8 neighbours, the weight of
+   a step the mean of the two cell costs x its length, as snc_grid_csr writes it; with
+   heur (h x w, or NULL) the weights are A*'s reduced ones, (heur[v] - heur[u]) + w
+   clipped at 0, as snc_reduced_weights. An indexed binary heap with decrease-key keeps
+   the memory at a few bytes a cell; the distances are those of snc_dijkstra (each the
+   least d(u) + w(u, v) over settled u). dist (h x w) <- distances from cell src, +inf
+   where not reached within limit. Returns 0, or -1 when out of memory. */
+int snc_grid_dijkstra(const double *cost, const double *heur, int64_t h, int64_t w, int64_t src,
+                      double limit, double *dist)
+{
+    int64_t n = h * w, size = 0;
+    int32_t *heap = malloc((size_t)n * sizeof(int32_t));
+    int32_t *pos = malloc((size_t)n * sizeof(int32_t));   /* -1: never queued, -2: settled */
+    if (!heap || !pos) {
+        free(heap);
+        free(pos);
+        return -1;
+    }
+    for (int64_t i = 0; i < n; ++i) {
+        dist[i] = INFINITY;
+        pos[i] = -1;
+    }
+#define SIFT_UP(i0) do {                                                      \
+        int64_t i_ = (i0); int32_t c_ = heap[i_]; double d_ = dist[c_];       \
+        while (i_ > 0) {                                                      \
+            int64_t p_ = (i_ - 1) / 2;                                        \
+            if (dist[heap[p_]] <= d_) break;                                  \
+            heap[i_] = heap[p_]; pos[heap[i_]] = (int32_t)i_; i_ = p_;        \
+        }                                                                     \
+        heap[i_] = c_; pos[c_] = (int32_t)i_;                                 \
+    } while (0)
+    dist[src] = 0.0;
+    heap[size++] = (int32_t)src;
+    pos[src] = 0;
+    while (size > 0) {
+        int32_t u = heap[0];
+        pos[u] = -2;
+        int32_t last = heap[--size];
+        if (size > 0) {                                /* sift `last` down from the root */
+            int64_t i = 0;
+            double dl = dist[last];
+            for (;;) {
+                int64_t c = 2 * i + 1;
+                if (c >= size)
+                    break;
+                if (c + 1 < size && dist[heap[c + 1]] < dist[heap[c]])
+                    ++c;
+                if (dl <= dist[heap[c]])
+                    break;
+                heap[i] = heap[c];
+                pos[heap[i]] = (int32_t)i;
+                i = c;
+            }
+            heap[i] = last;
+            pos[last] = (int32_t)i;
+        }
+        int64_t y = u / w, x = u % w;
+        double du = dist[u], cu = cost[u], hu = heur ? heur[u] : 0.0;
+        for (int j = 0; j < 8; ++j) {
+            int64_t ny = y + ROW_DY[j], nx = x + ROW_DX[j];
+            if (ny < 0 || nx < 0 || ny >= h || nx >= w)
+                continue;
+            int64_t v = ny * w + nx;
+            if (pos[v] == -2 || !isfinite(cost[v]))
+                continue;
+            double length = (ROW_DY[j] != 0 && ROW_DX[j] != 0) ? SQRT2 : 1.0;
+            double wt = 0.5 * (cu + cost[v]) * length;
+            if (heur) {
+                double r = (heur[v] - hu) + wt;
+                wt = r > 0.0 ? r : 0.0;
+            }
+            double nd = du + wt;
+            if (nd <= limit && nd < dist[v]) {
+                dist[v] = nd;
+                if (pos[v] < 0) {
+                    heap[size] = (int32_t)v;
+                    SIFT_UP(size);
+                    ++size;
+                } else {
+                    SIFT_UP(pos[v]);
+                }
+            }
+        }
+    }
+#undef SIFT_UP
+    free(heap);
+    free(pos);
+    return 0;
+}

@@ -214,24 +214,45 @@ def grid_graph_matrix_reference(cell_cost):
 
 
 class GridGraph:
-    """The 8-connected graph of the passable cells of a cost grid, as a CSR matrix (CSRGraph).
+    """The 8-connected graph of the passable cells of a cost grid.
 
     cell_cost: (H, W) float, inf for forbidden cells. node_of: (H*W,) node index or -1;
-    cells: (n,) flat cell index of each node.
+    cells: (n,) flat cell index of each node. The searches run on the grid itself
+    (csrc/grid_graph.c's snc_grid_dijkstra: the weights computed where they are used);
+    ``matrix``, the same graph as a CSR matrix (CSRGraph), is built only when asked for
+    (the tests compare it with SciPy's), not by the planner: for a 440 x 320 map it and
+    A*'s reduced copy took ~16 MB a plan.
     """
 
     def __init__(self, cell_cost):
-        cost = np.asarray(cell_cost, dtype=np.float64)
-        self.shape = cost.shape
-        h, w = cost.shape
-        passable = np.isfinite(cost)
-        self.cells = np.flatnonzero(passable.ravel())
+        self.cost = np.ascontiguousarray(cell_cost, dtype=np.float64)
+        self.shape = self.cost.shape
+        h, w = self.shape
+        self.cells = np.flatnonzero(np.isfinite(self.cost).ravel())
         self.node_of = np.full(h * w, -1, dtype=np.int64)
         self.node_of[self.cells] = np.arange(self.cells.size)
         n = self.cells.size
-        self.min_cost = float(cost.ravel()[self.cells].min()) if n else COST_NEUTRAL
-        indptr, indices, data = _grid_csr(cost, passable, self.node_of)
-        self.matrix = CSRGraph(data, indices, indptr, n)
+        self.min_cost = float(self.cost.ravel()[self.cells].min()) if n else COST_NEUTRAL
+        self._matrix = None
+
+    @property
+    def matrix(self):
+        """The graph as a CSRGraph: each passable cell's row lists its passable neighbours
+        in increasing node index, weight = mean cell cost x step length."""
+        if self._matrix is None:
+            indptr, indices, data = _grid_csr(self.cost, np.isfinite(self.cost), self.node_of)
+            self._matrix = CSRGraph(data, indices, indptr, self.cells.size)
+        return self._matrix
+
+    def _search(self, source_cell, heur, limit):
+        """Distances (H*W,) from source_cell over the grid, A*-reduced by heur (H*W,) or
+        not (None), +inf where not reached within limit."""
+        dist = np.empty(self.shape[0] * self.shape[1])
+        ptr = None if heur is None else heur.ctypes.data
+        if _native().snc_grid_dijkstra(self.cost, ptr, self.shape[0], self.shape[1], int(source_cell),
+                                       float(limit), dist):
+            raise MemoryError("navfn: no memory for Dijkstra's heap")
+        return dist
 
     def component_of(self, cell):
         """8-connected component label of flat cell index cell (-1 if not passable)."""
@@ -258,23 +279,21 @@ class GridGraph:
             return self.potential(source_cell)
         h, w = self.shape
         tx, ty = target_cell % w, target_cell // w
-        dx = np.abs(self.cells % w - tx).astype(np.float64)
-        dy = np.abs(self.cells // w - ty).astype(np.float64)
-        heur = self.min_cost * (np.maximum(dx, dy) + (SQRT2 - 1.0) * np.minimum(dx, dy))
+        dx = np.abs(np.arange(w) - tx).astype(np.float64)[None, :]
+        dy = np.abs(np.arange(h) - ty).astype(np.float64)[:, None]
+        heur = (self.min_cost * (np.maximum(dx, dy) + (SQRT2 - 1.0) * np.minimum(dx, dy))).ravel()
         if guide is not None:
-            heur = np.maximum(heur, np.asarray(guide, dtype=np.float64).ravel()[self.cells])
-        m = self.matrix
-        reduced = _reduced_weights(m.indptr, m.indices, m.data, heur)   # w' = w + h(v) - h(u)
-        rm = CSRGraph(reduced, m.indices, m.indptr, m.shape[0])
-        hs = heur[src]
+            heur = np.maximum(heur, np.asarray(guide, dtype=np.float64).ravel())
+        heur = np.ascontiguousarray(heur)
+        hs = heur[source_cell]
         est = hs if cost_estimate is None or not math.isfinite(cost_estimate) else max(hs, cost_estimate)
         limit = max(BOUND_MARGIN * est - hs, self.min_cost)
         for _ in range(BOUND_TRIES):
-            d = _dijkstra(rm, src, limit)
-            if np.isfinite(d[tgt]):
+            d = self._search(source_cell, heur, limit)     # on w' = w + h(v) - h(u)
+            if np.isfinite(d[target_cell]):
                 pot = np.full(h * w, POT_HIGH)
                 reached = np.isfinite(d)
-                pot[self.cells[reached]] = d[reached] + hs - heur[reached]
+                pot[reached] = d[reached] + hs - heur[reached]
                 pot[source_cell] = 0.0
                 return pot.reshape(self.shape)
             limit = BOUND_GROWTH * (limit + hs) - hs
@@ -283,12 +302,11 @@ class GridGraph:
     def potential(self, source_cell, limit=np.inf):
         """Dijkstra distances (H, W) from flat cell index source_cell; POT_HIGH where unreached."""
         pot = np.full(self.shape[0] * self.shape[1], POT_HIGH)
-        src = self.node_of[source_cell]
-        if src < 0:
+        if self.node_of[source_cell] < 0:
             return pot.reshape(self.shape)
-        d = _dijkstra(self.matrix, src, limit)
+        d = self._search(source_cell, None, limit)
         reached = np.isfinite(d)
-        pot[self.cells[reached]] = d[reached]
+        pot[reached] = d[reached]
         return pot.reshape(self.shape)
 
 

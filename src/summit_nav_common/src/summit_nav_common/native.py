@@ -29,6 +29,7 @@ SIGNATURES = {
     "snc_grid_csr": (_int64, [_f64, _u8, _i64, _int64, _int64, _i64, _i32, _f64]),
     "snc_reduced_weights": (None, [_i64, _i32, _f64, _f64, _int64, _f64]),
     "snc_dijkstra": (ctypes.c_int, [_i64, _i32, _f64, _int64, _int64, ctypes.c_double, _f64]),
+    "snc_grid_dijkstra": (ctypes.c_int, [_f64, ctypes.c_void_p, _int64, _int64, _int64, ctypes.c_double, _f64]),
     # csrc/distance.c, interpolate.c, components.c (summit_nav_common.grid_kernels)
     "snc_edt": (ctypes.c_int, [_u8, _int64, _int64, _f32]),
     "snc_chamfer5_labels": (ctypes.c_int, [_u8, _int64, _int64, _f32, _i32]),
