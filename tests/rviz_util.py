@@ -3,21 +3,19 @@
 A private Xvfb (display number picked by Xvfb itself), a free master port per launch,
 processes started in their own sessions and killed by PID only (never by name), an
 ImageMagick screenshot of the root window, and the location of rviz's render panel in it.
-Import from a test module (pytest runs with --import-mode=importlib, so the test puts its
-own directory on sys.path first) and re-export the fixtures `spawn` and `xvfb`.
+Import from a test module (tests/ is on tests/pytest.ini's pythonpath) and re-export the
+fixtures `spawn` and `xvfb`.
 """
 import os
 import select
 import shutil
 import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
-from roslaunch_session import free_port, stop_process_tree  # noqa: E402,F401  (re-exported)
+from summit_nav_common.testing.roslaunch_session import free_port, stop_process_tree  # noqa: F401  (re-exported)
 
 SCREEN = (1280, 800)
 BACKGROUND = np.array([48, 48, 48])   # rviz's default background colour (RGB)

@@ -9,15 +9,14 @@ space is untouched; the launch runs in an environment with only the install spac
 import os
 import shlex
 import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
 
+from summit_nav_common.testing.roslaunch_session import free_port, run_bounded, stop_process_tree
+
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(WS, "tools"))
-from roslaunch_session import free_port, run_bounded, stop_process_tree  # noqa: E402
 
 BUILD_TIMEOUT = 900      # [s] wall: cmake configure + install of every package
 MAP_TIMEOUT = 240        # [s] wall until the first autosaved map

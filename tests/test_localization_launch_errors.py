@@ -1,12 +1,10 @@
 """amcl's parameters at launch: a bad value ends amcl.launch at once, naming the parameter
 and why; a name amcl does not read is named once and amcl runs on, as the real one does."""
 import os
-import sys
 
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
-from roslaunch_session import free_port, run_bounded  # noqa: E402
+from summit_nav_common.testing.roslaunch_session import free_port, run_bounded
 
 TIMEOUT = 60  # [s]
 

@@ -3,14 +3,12 @@ map_saver into a folder that is missing or not writable fails clearly, earlier f
 import os
 import signal
 import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
-from roslaunch_session import Roscore, free_port, stop_process_tree, wait_for  # noqa: E402
+from summit_nav_common.testing.roslaunch_session import Roscore, free_port, stop_process_tree, wait_for
 
 TIMEOUT = 60  # [s] wall for one launch
 GOOD_YAML = ("image: {image}\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"

@@ -10,12 +10,12 @@ import sys
 import pytest
 import yaml
 
+import bench_move_base_live as live  # the script under test (tests/pytest.ini's pythonpath)
+
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPTS = os.path.join(WS, "src", "my_summit_path_planning", "scripts")
 RUNNER = os.path.join(SCRIPTS, "bench_move_base_live.py")
 CONFIG = os.path.join(WS, "src", "my_summit_path_planning", "config")
-sys.path.insert(0, SCRIPTS)
-import bench_move_base_live as live  # noqa: E402
 
 DWA_RULE = {"xy_goal_tolerance": 0.10, "yaw_goal_tolerance": 0.06, "max_vel_x": 1.0,
             "local_type": "dwa_local_planner/DWAPlannerROS", "global_type": "navfn/NavfnROS"}

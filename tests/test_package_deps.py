@@ -76,7 +76,8 @@ def top_level_imports(path):
 
 
 def local_modules(pkg):
-    """Module names that are the package's own test helpers or scripts (imported by path)."""
+    """Module names of the package's own test helpers and scripts (a script or a rostest
+    node imports its siblings: its own folder is on sys.path when it runs)."""
     names = set()
     for part in ("test", "scripts", "nodes"):
         for path in glob.glob(os.path.join(SRC, pkg, part, "*")):
@@ -101,25 +102,13 @@ def declared(pkg):
     return get("exec_depend", "depend"), get("test_depend", "depend") | get("exec_depend")
 
 
-def helper_owners():
-    """{module: package} of the helper modules a package's tests and scripts import from
-    another package's test/ or scripts/ folder by path (e.g. mbtest_util)."""
-    return {name: pkg for pkg in PACKAGES for name in local_modules(pkg)}
-
-
-# The workspace's own tools (tools/), put on sys.path by the benchmark scripts that share
-# them; they are not part of any package.
-WORKSPACE_TOOLS = {os.path.splitext(os.path.basename(p))[0] for p in glob.glob(os.path.join(WS, "tools", "*.py"))}
-
-
 def dependency_of(module, pkg):
     """The package.xml key an import of module needs, or None (stdlib, the package itself,
-    its own local helpers, the workspace's tools)."""
-    if module in sys.stdlib_module_names or module == pkg or module in local_modules(pkg) \
-            or module in WORKSPACE_TOOLS:
+    a sibling in its own test/, scripts/ or nodes/ folder). Helpers shared between
+    packages live in a package's library (summit_nav_common.testing, ...): a module of
+    another package's folders or of the workspace's tools/ is not importable by name."""
+    if module in sys.stdlib_module_names or module == pkg or module in local_modules(pkg):
         return None
-    if module in helper_owners():
-        return helper_owners()[module]
     if module in ROSDEP:
         return ROSDEP[module]
     return PROVIDED_BY.get(module, module)

@@ -1,13 +1,12 @@
 """Bad move_base parameters at launch: move_base.launch ends at once, naming the parameter."""
 import os
 import shutil
-import sys
 
 import pytest
 
+from summit_nav_common.testing.roslaunch_session import free_port, run_bounded
+
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(WS, "tools"))
-from roslaunch_session import free_port, run_bounded  # noqa: E402
 
 TIMEOUT = 60  # [s]
 CONFIG = os.path.join(WS, "src", "my_summit_path_planning", "config")

@@ -16,7 +16,6 @@ screenshot of rviz with a fixed frame that does not exist (nothing can be transf
 Run: source devel/setup.bash && /usr/bin/python3 -m pytest tests/test_rviz_sim.py
 """
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -25,7 +24,6 @@ import pytest
 
 import cv2  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from rviz_util import (BACKGROUND, SCREEN, stop_process_tree, need, free_port,  # noqa: E402
                        render_area, ros_env, screenshot, spawn, wait_sim_time, xvfb)  # noqa: F401
 

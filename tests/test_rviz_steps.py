@@ -43,7 +43,6 @@ Run: source devel/setup.bash && /usr/bin/python3 -m pytest tests/test_rviz_steps
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -51,7 +50,6 @@ import pytest
 
 import cv2  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from rviz_util import (BACKGROUND, SCREEN, colour_mask, free_port,  # noqa: E402
                        stop_process_tree, need, render_area, ros_env, screenshot,
                        spawn, wait_alive, wait_message, wait_param, xvfb)  # noqa: F401

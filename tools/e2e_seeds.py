@@ -18,8 +18,7 @@ import re
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from roslaunch_session import run_bounded  # noqa: E402
+from summit_nav_common.testing.roslaunch_session import run_bounded
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TEST = os.path.join(WS, "tests", "course_project.test")

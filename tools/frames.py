@@ -23,8 +23,7 @@ import subprocess
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from roslaunch_session import free_port, stop_process_tree  # noqa: E402
+from summit_nav_common.testing.roslaunch_session import free_port, stop_process_tree
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -18,11 +18,10 @@ import shutil
 import sys
 import time
 
+import rostest_files as rt  # the rostest files and how make test runs them (a sibling)
+from summit_nav_common.testing.roslaunch_session import run_bounded
+
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(WS, "tests"))
-sys.path.insert(0, os.path.join(WS, "tools"))
-import test_rostest as rt  # noqa: E402  (the rostest files and how make test runs them)
-from roslaunch_session import run_bounded  # noqa: E402
 
 
 def main():
