@@ -24,11 +24,8 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
-
-from my_summit_mapping import carmen, carmen_bag, metrics, online_eval  # noqa: E402
-from my_summit_mapping.karto.mapper import KartoMapper, KartoParams, LaserGeometry  # noqa: E402
+from my_summit_mapping import carmen, carmen_bag, metrics, online_eval
+from my_summit_mapping.karto.mapper import KartoMapper, KartoParams, LaserGeometry
 
 
 def load_scans(log, seed, carmen_log=None):

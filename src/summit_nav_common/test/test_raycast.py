@@ -100,15 +100,14 @@ def test_ray_along_a_cell_boundary_ends(tmp_path):
     code = (
         "import math, numpy as np\n"
         "from summit_nav_common import raycast\n"
-        f"import sys; sys.path.insert(0, {HERE!r})\n"
-        "from test_raycast import walls_of\n"
+        "from test_raycast import walls_of\n"   # python -c imports from its working directory: HERE
         f"_, occ, dist = walls_of({WILLOW!r})\n"
         "a = np.array([-math.pi, math.pi, -math.pi / 2, math.pi / 2, 0.0])\n"
         "fast = raycast.cast_rays(occ, dist, 182.5, 185.0, a, 300.0)\n"
         "ref = raycast.cast_rays_reference(occ, 182.5, 185.0, a, 300.0)\n"
         "assert np.allclose(fast, ref, atol=1e-9), (fast, ref)\n"
         "print('ok')\n")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=HERE)
     assert r.returncode == 0 and "ok" in r.stdout, r.stderr[-2000:]
 
 
