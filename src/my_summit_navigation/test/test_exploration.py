@@ -1,7 +1,7 @@
 """exploration.Explore, explore's round-by-round goal bookkeeping, with a fake clock."""
 import math
 
-import numpy as np
+from summit_nav_common.testing.scenes import known_corridor
 
 from my_summit_navigation import exploration as ex
 from my_summit_navigation import frontiers as fr
@@ -10,34 +10,24 @@ RES = 0.1            # [m/cell]
 PARAMS = fr.FrontierParams(min_frontier_size=0.5)
 
 
-def corridor_world():
-    """20 x 60 cells at 0.1 m: a corridor (rows 5..14) known up to column 30, unknown
-    beyond; walls (100) on rows 4 and 15. Its one frontier's goal is near (2.7, 1.0)."""
-    g = np.full((20, 60), -1, np.int16)
-    g[5:15, :30] = 0
-    g[4, :30] = 100
-    g[15, :30] = 100
-    return g
-
-
 def step(e, now, pose, grid, stamp=None):
     return e.step(now, pose, grid, RES, (0.0, 0.0), stamp)
 
 
 def test_sends_the_cheapest_goal_then_keeps_it():
     e = ex.Explore(PARAMS)
-    r = step(e, 0.0, (0.5, 1.0, 0.0), corridor_world())
+    r = step(e, 0.0, (0.5, 1.0, 0.0), known_corridor())
     assert r.send is not None and 2.6 <= r.send.goal[0] <= 2.8 and r.over is None and not r.cancel
     gx, gy = r.send.goal                                            # heading the way it drives there
     assert r.goal_yaw == math.atan2(gy - 1.0, gx - 0.5) and e.sent == 1 and e.goal == (gx, gy)
     assert "goal 1: frontier of" in r.logs[0][1]
-    r = step(e, 3.0, (1.0, 1.0, 0.0), corridor_world())             # progress: the goal is kept
+    r = step(e, 3.0, (1.0, 1.0, 0.0), known_corridor())             # progress: the goal is kept
     assert r.send is None and r.frontiers and not r.cancel and e.sent == 1
 
 
 def test_no_progress_gives_up_then_one_more_try_then_over():
     e = ex.Explore(PARAMS, progress_timeout=10.0)
-    pose, g = (0.5, 1.0, math.pi), corridor_world()   # facing away: never counts as reached
+    pose, g = (0.5, 1.0, math.pi), known_corridor()   # facing away: never counts as reached
     step(e, 0.0, pose, g)
     now = 0.0
     while True:
@@ -64,9 +54,9 @@ def test_no_progress_gives_up_then_one_more_try_then_over():
 
 def test_aborted_goal_is_given_up_at_once_and_not_counted_as_stuck():
     e = ex.Explore(PARAMS, stuck_goals=1)
-    step(e, 0.0, (0.5, 1.0, 0.0), corridor_world())
+    step(e, 0.0, (0.5, 1.0, 0.0), known_corridor())
     e.goal_done(1, ex.ABORTED)
-    r = step(e, 1.0, (0.5, 1.0, 0.0), corridor_world())
+    r = step(e, 1.0, (0.5, 1.0, 0.0), known_corridor())
     assert r.cancel and e.failed == 1 and r.over is None and "move_base aborted it" in r.logs[0][1]
 
 
@@ -74,9 +64,9 @@ def test_late_end_of_the_previous_goal_does_not_end_the_next():
     # Goal 1 counted as reached near it (REACHED, frontier in view) before move_base said
     # so; goal 2 is sent in that round, then goal 1's SUCCEEDED arrives: goal 2 drives on.
     e = ex.Explore(PARAMS)
-    step(e, 0.0, (0.5, 1.0, 0.0), corridor_world())
+    step(e, 0.0, (0.5, 1.0, 0.0), known_corridor())
     gx, gy = e.goal
-    g = corridor_world()                  # the map grew: known up to column 50
+    g = known_corridor()                  # the map grew: known up to column 50
     g[5:15, :50] = 0
     g[4, :50] = 100
     g[15, :50] = 100
@@ -95,15 +85,15 @@ def test_late_end_of_the_previous_goal_does_not_end_the_next():
 def test_stuck_robot_ends_exploration():
     e = ex.Explore(PARAMS, progress_timeout=5.0, stuck_goals=1)
     pose = (0.5, 1.0, math.pi)
-    step(e, 0.0, pose, corridor_world())
-    r = step(e, 3.0, pose, corridor_world())
-    r = step(e, 9.0, pose, corridor_world())
+    step(e, 0.0, pose, known_corridor())
+    r = step(e, 3.0, pose, known_corridor())
+    r = step(e, 9.0, pose, known_corridor())
     assert r.cancel and r.over.startswith("the robot is stuck at (0.50, 1.00): 1 goals in a row")
 
 
 def test_reached_near_the_goal_facing_the_frontier():
     e = ex.Explore(PARAMS)
-    g = corridor_world()
+    g = known_corridor()
     step(e, 0.0, (0.5, 1.0, 0.0), g)
     gx, gy = e.goal
     r = step(e, 5.0, (gx - 0.2, gy, 0.0), g)      # 0.2 m short, the frontier ahead
@@ -116,7 +106,7 @@ def test_reached_near_the_goal_facing_the_frontier():
 
 
 def test_all_known_ends_after_empty_rounds():
-    g = corridor_world()
+    g = known_corridor()
     g[g == -1] = 100
     e = ex.Explore(PARAMS)
     rs = [step(e, 3.0 * k, (0.5, 1.0, 0.0), g) for k in range(ex.EMPTY_ROUNDS)]
@@ -132,7 +122,7 @@ def test_empty_rounds_count_costmaps_not_rounds():
     about 1 s of wall time, all on the same costmap message, on which the robot stood in
     a cell the latest update had marked. Rounds on a costmap already counted no longer
     count: the end needs EMPTY_ROUNDS costmaps without a frontier."""
-    g = corridor_world()
+    g = known_corridor()
     g[g == -1] = 100
     pose = (0.5, 1.0, 0.0)
     e = ex.Explore(PARAMS)
@@ -144,7 +134,7 @@ def test_empty_rounds_count_costmaps_not_rounds():
     # a frontier found in between starts the count again, the same stamp included
     e = ex.Explore(PARAMS)
     step(e, 0.0, pose, g, 1.0)
-    assert step(e, 1.0, pose, corridor_world(), 2.0).send is not None and e.empty_rounds == 0
+    assert step(e, 1.0, pose, known_corridor(), 2.0).send is not None and e.empty_rounds == 0
     e.goal_done(1, ex.SUCCEEDED)
     step(e, 2.0, pose, g, 2.0)
     assert e.empty_rounds == 1

@@ -3,21 +3,13 @@ import math
 
 import numpy as np
 
+from summit_nav_common.testing.scenes import known_corridor
+
 from my_summit_navigation import frontiers as fr
 
 
-def corridor_world():
-    """20 x 60 cells at 0.1 m: a corridor (rows 5..14) known up to column 30, unknown
-    beyond; walls (100) on rows 4 and 15."""
-    g = np.full((20, 60), -1, np.int16)
-    g[5:15, :30] = 0
-    g[4, :30] = 100
-    g[15, :30] = 100
-    return g
-
-
 def test_one_frontier_at_the_end_of_the_known_corridor():
-    g = corridor_world()
+    g = known_corridor()
     fs = fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=0.5))
     assert len(fs) == 1
     f = fs[0]
@@ -54,7 +46,7 @@ def test_goal_steps_back_into_the_open_and_keeps_the_frontier_in_sight():
 
 
 def test_small_frontiers_blacklist_and_no_reach():
-    g = corridor_world()
+    g = known_corridor()
     assert fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=1.5)) == []
     fs = fr.find_frontiers(g, 0.1, (0.0, 0.0), (0.5, 1.0), fr.FrontierParams(min_frontier_size=0.5),
                            blacklist=[(2.95, 1.0)])
@@ -219,7 +211,7 @@ def test_blacklist_gives_goals_without_progress_one_more_try():
 
 
 def test_a_released_goal_is_found_again():
-    g = corridor_world()
+    g = known_corridor()
     robot = (0.5, 1.0)
     first = fr.find_frontiers(g, 0.1, (0.0, 0.0), robot)
     assert len(first) == 1
@@ -232,7 +224,7 @@ def test_a_released_goal_is_found_again():
 
 
 def test_frontiers_out_of_reach_are_counted():
-    g = corridor_world()
+    g = known_corridor()
     robot = (0.5, 1.0)
     assert fr.frontiers_out_of_reach(g, 0.1, (0.0, 0.0), robot) == 0   # the one frontier is reachable
     g[5:15, 10] = 100                 # a wall across the corridor with a slot of 2 cells
