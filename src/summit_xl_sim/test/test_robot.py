@@ -6,16 +6,14 @@ import pytest
 
 from summit_nav_common import geometry
 from summit_xl_sim import robot as rb
-from summit_nav_common.map_io import GridMap
+from summit_nav_common.testing import scenes
 from summit_xl_sim.sim import Simulation
 from summit_xl_sim.world import World
 
 
 def open_world(size_m=20.0, res=0.05):
-    n = int(size_m / res)
-    data = np.zeros((n, n), np.int8)
-    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
-    return World(GridMap(data=data, resolution=res, origin=(0.0, 0.0, 0.0)))
+    """The simulator's world of scenes.square_room: walls on the border only."""
+    return World(scenes.square_room(size_m, res))
 
 
 def quiet_params():
