@@ -5,7 +5,7 @@ The robot starts in the main hall (the map's origin); ~labels are called in orde
 (table, room, turtle: from the hall into the fetch room and around it). Each call must
 answer navigation_successfull true with "OK", and then the robot must stand within
 ~xy_tolerance [m] and ~yaw_tolerance [rad] of the spot by ground truth (taken into the
-map frame with loctest_util.map_in_world); zero collisions over the whole run.
+map frame with summit_nav_common.testing.ground_truth.map_in_world); zero collisions over the whole run.
 """
 import math
 import sys
