@@ -35,6 +35,12 @@ beside each time. Sections:
   amcl        the amcl core: update cost (5000 particles, 61 beams), tracking on the tour,
               global localization from 20 seeded poses, kidnapping (10 runs); the live
               node on the tour: CPU per simulated second, and a profile of where it goes
+  ekf         ekf_localization_node on the tour with the skid-steer odometry and the IMU, seeds 1-5
+              (bench_ekf.py: each seed's tour recorded once into a bag, played at 1x): heading error
+              after the tour and ATE without alignment, raw odometry and fused; CPU per simulated
+              second, peak RSS
+  ekf_peer    (only with --only ekf_peer --ekf-node EXE [--ekf-node-setup SETUP]) the same bags and
+              YAML played to another ekf_localization_node, e.g. the real robot_localization's
   planning    the path-planning core (no ROS): NavFn and GlobalPlanner (A*, Dijkstra) plan
               time on willow-full-0.05 and their paths against the exact grid geodesic;
               one DWA control cycle; closed loop (global + local costmaps, simulator) of
@@ -346,6 +352,28 @@ def bench_planning(runs):
     return res
 
 
+EKF_SEEDS = (1, 2, 3, 4, 5)
+
+
+def bench_ekf(node=None, node_setup=None, seeds=EKF_SEEDS):
+    """bench_ekf.py on our ekf_localization_node, or on `node` (node_setup: the bash file its
+    environment needs) for ekf_peer. Both play the same recorded tours (output/ekf_bags,
+    recorded by the first of them that runs). Ours carries the peer's last medians from the
+    store, which its targets compare against."""
+    tag = "_peer" if node else ""
+    res = _run_script("my_summit_localization", "bench_ekf.py",
+                      ["--seeds", *map(str, seeds), "--bags", os.path.join(OUT, "ekf_bags"),
+                       "--out", os.path.join(OUT, f"bench_ekf{tag}")]
+                      + ((["--node", node] + (["--setup", node_setup] if node_setup else [])) if node else []),
+                      f"bench_ekf{tag}.json")
+    if not node:
+        peer = bench_report.load_store().get("sections", {}).get("ekf_peer")
+        if peer:
+            res["peer"] = {"median": peer["rows"][0]["values"].get("median"), "commit": peer["commit"],
+                           "node": peer["rows"][0]["values"].get("node")}
+    return res
+
+
 PEER_WILLOW_PAIRS = 20   # planning's closed loop on willow-full-0.05
 # (global, local) kinds the peer runs: the lesson's global planner with each local planner
 PEER_COMBOS = (("navfn", "dwa"), ("navfn", "trajectory"), ("navfn", "trajectory-dwa"))
@@ -483,7 +511,8 @@ def bench_e2e():
 PEER_SECTIONS = {"slam_bag_peer": ("gmapping", "the real gmapping's slam_gmapping"),
                  "slam_bag_karto_peer": ("karto", "the real slam_karto (build_karto.sh)"),
                  "slam_replay_peer": ("gmapping-replay", "the real gmapping's slam_gmapping_replay"),
-                 "planning_peer": ("move-base", "the real move_base")}
+                 "planning_peer": ("move-base", "the real move_base"),
+                 "ekf_peer": ("ekf-node", "the real robot_localization's ekf_localization_node")}
 
 
 def main():
@@ -510,6 +539,10 @@ def main():
                     help="planning_peer: the other move_base executable (e.g. the real move_base's)")
     ap.add_argument("--move-base-setup", metavar="SETUP_BASH",
                     help="planning_peer: a setup.bash the other executable's environment needs (sourced --extend)")
+    ap.add_argument("--ekf-node", metavar="EXECUTABLE",
+                    help="ekf_peer: the other ekf_localization_node (e.g. the real robot_localization's)")
+    ap.add_argument("--ekf-node-setup", metavar="SETUP_BASH",
+                    help="ekf_peer: a setup.bash the other executable's environment needs (sourced --extend)")
     ap.add_argument("--explore-worlds", nargs="+", choices=sorted(EXPLORE_RUNS),
                     help="explore: only these worlds (default all; willow takes about 40 min)")
     ap.add_argument("--profile", metavar="PREFIX", help=argparse.SUPPRESS)  # sim_rtf's profiled child
@@ -524,7 +557,7 @@ def main():
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once(profile=args.profile)))
         return 0
-    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_bag_karto", "slam_sim", "amcl", "planning", "stack_cpu", "explore", "patrol",
+    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_bag_karto", "slam_sim", "amcl", "ekf", "planning", "stack_cpu", "explore", "patrol",
                          "race_track", "multi_robot"]
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
@@ -556,6 +589,9 @@ def main():
                                                       args.carmen_logs),
         "slam_sim": lambda: bench_slam_sim(args.runs),
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
+        "ekf": bench_ekf,
+        "ekf_peer": lambda: bench_ekf(os.path.abspath(args.ekf_node),
+                                      args.ekf_node_setup and os.path.abspath(args.ekf_node_setup)),
         "planning": lambda: bench_planning(args.runs),
         "planning_peer": lambda: bench_planning_peer(os.path.abspath(args.move_base), args.move_base_setup
                                                      and os.path.abspath(args.move_base_setup)),

@@ -48,6 +48,11 @@ SECTIONS = {
     "slam_sim": ("slam_gmapping (ROS node, course parameters, 30 particles) over the built-in world's tour; "
                  "where its time goes (one profiled tour)"),
     "amcl": "the amcl core: update cost, tracking, global localization, kidnapping; the live node's CPU",
+    "ekf": ("ekf_localization_node (robot_localization's interface, config/ekf.yaml: wheel velocities + IMU yaw "
+            "rate) on the tour with the skid-steer odometry, each seed's tour recorded once and played at 1x: "
+            "heading error after the tour and ATE (no alignment) of the raw and the fused odometry, CPU, memory"),
+    "ekf_peer": ("the real robot_localization's ekf_localization_node (or any compatible executable, given with "
+                 "--ekf-node) on ekf's recorded tours with the same YAML: the oracle for its targets"),
     "planning": ("the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop of every global x local "
                  "planner over seeded goal pairs"),
     "planning_peer": ("the real move_base (or any move_base-compatible executable, given with --move-base) live "
@@ -382,6 +387,57 @@ CLOSED_GLOBAL = {"navfn": "NavFn", "astar": "GlobalPlanner A*", "dijkstra": "Glo
 CLOSED_LOCAL = {"dwa": "DWA", "trajectory": "TrajectoryPlanner", "trajectory-dwa": "TrajectoryPlanner dwa: true"}
 
 
+EKF_SHARE_OF_RAW = 1.0 / 3.0   # issue 41: fused heading error and ATE at most a third of the raw odometry's
+
+
+def _ekf_rows(res, judged):
+    """Rows of bench_ekf.py's result; judged: with the targets (ours), else none (the peer)."""
+    med, n = res["median"], len(res["runs"])
+    peer = (res.get("peer") or {}).get("median") if judged else None
+    node = os.path.basename(res.get("node") or "") or "ekf_localization_node (ours)"
+    out = []
+    for key, label, unit, fmt in (("heading_deg", "heading error after the tour", "deg", ".2f"),
+                                  ("ate_m", "ATE over the tour (no alignment)", "m", ".3f")):
+        fused, raw = med[f"fused_{key}"], med[f"raw_{key}"]
+        measured = f"{fused:{fmt}} {unit} (raw odometry {raw:{fmt}} {unit})"
+        target = met = None
+        if judged:
+            limit = raw * EKF_SHARE_OF_RAW
+            target = f"<= 1/3 of raw ({limit:{fmt}} {unit})"
+            met = fused <= limit
+            if peer:
+                target += f" and <= the real node's ({peer[f'fused_{key}']:{fmt}} {unit}, ekf_peer)"
+                met = met and fused <= peer[f"fused_{key}"]
+                measured += f"; real robot_localization {peer[f'fused_{key}']:{fmt}} {unit}"
+            else:
+                target += " and <= the real node's (ekf_peer: not measured yet)"
+        out.append(row(f"{node}: {label}, fused, median of {n} seeds", measured,
+                       {"median": med, "node": res.get("node"), "seeds": res["seeds"]} if not out else
+                       {f"fused_{key}": fused, f"raw_{key}": raw}, target, met))
+    out.append(row("... per seed: heading raw -> fused [deg]; ATE raw -> fused [m]",
+                   "; ".join(f"{r['seed']}: {r['raw']['heading_deg']:.1f} -> {r['fused']['heading_deg']:.2f}, "
+                             f"{r['raw']['ate_m']:.2f} -> {r['fused']['ate_m']:.3f}" for r in res["runs"]),
+                   {"runs": [{k: r[k] for k in ("seed", "raw", "fused")} for r in res["runs"]]}))
+    cpu, rss = med["cpu_per_sim_s"], med["peak_rss_mb"]
+    text = f"{cpu:.3f} CPU s per simulated s, peak RSS {rss:.0f} MB"
+    if peer:
+        text += f"; real robot_localization {peer['cpu_per_sim_s']:.3f}, {peer['peak_rss_mb']:.0f} MB"
+    out.append(row(f"... the node's CPU per simulated second and peak RSS (rosbag play rate {res['rate']:g}), "
+                   "medians", text, {"cpu_per_sim_s": cpu, "peak_rss_mb": rss}))
+    bad = res.get("not_finite_total", 0)
+    out.append(row("... odometry/filtered messages with NaN or inf, all seeds", str(bad), {"not_finite": bad},
+                   "0" if judged else None, bad == 0))
+    return out
+
+
+def rows_ekf(res):
+    return _ekf_rows(res, True)
+
+
+def rows_ekf_peer(res):
+    return _ekf_rows(res, False)
+
+
 def closed_loop_key(world, global_kind, local_kind):
     """bench_planning_core's key of a closed loop: closed_loop_<world>[_<global>][_<local>],
     NavFn and DWA left out."""
@@ -678,7 +734,7 @@ def rows_e2e(res):
 ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_carmen, "slam_bag": rows_slam_bag,
         "slam_bag_peer": rows_slam_bag_peer, "slam_bag_karto": rows_slam_bag_karto,
         "slam_bag_karto_peer": rows_slam_bag_karto_peer, "slam_replay_peer": rows_slam_replay_peer, "slam_sim": rows_slam_sim,
-        "amcl": rows_amcl, "planning": rows_planning,
+        "amcl": rows_amcl, "ekf": rows_ekf, "ekf_peer": rows_ekf_peer, "planning": rows_planning,
         "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore,
         "patrol": rows_patrol, "race_track": rows_race_track,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e}
@@ -810,7 +866,8 @@ RENDER_COMMAND = "make bench-page"
 MEASURE_ARGS = {"slam_bag_peer": " --gmapping EXECUTABLE [--gmapping-setup SETUP_BASH]",
                 "slam_bag_karto_peer": " --karto EXECUTABLE [--karto-setup SETUP_BASH]",
                 "slam_replay_peer": " --gmapping-replay EXECUTABLE [--gmapping-replay-setup SETUP_BASH]",
-                "planning_peer": " --move-base EXECUTABLE [--move-base-setup SETUP_BASH]"}
+                "planning_peer": " --move-base EXECUTABLE [--move-base-setup SETUP_BASH]",
+                "ekf_peer": " --ekf-node EXECUTABLE [--ekf-node-setup SETUP_BASH]"}
 
 
 def measure_command(section):
