@@ -138,7 +138,10 @@ SECTION_RESULTS = {
                                          "cpu_s": 50.0, "peak_rss_mb": 600.0},
                  "worst": {"ate_online_m": 0.31, "cpu_ms_per_update": 130.0},
                  "runs": [{"seed": 1, "ate_online_m": 0.29, "updates": 430, "expected_updates": 431}]}}},
-    "slam_bag_peer": {"rate": 4.0, "node": "/tmp/peers_ws/devel/lib/gmapping/slam_gmapping", "logs": {
+    "slam_bag_peer": {"rate": 4.0, "node": "/tmp/peers_ws/devel/lib/gmapping/slam_gmapping",
+                      "node_package": {"executable": "slam_gmapping", "package": "gmapping", "version": "1.4.2",
+                                       "repository": "ros-perception/slam_gmapping",
+                                       "commit": "0835d19c69dae36c98b8fa337f4cc2162bdbaf0c"}, "logs": {
         "aces": {"rate": 4.0, "median": {"ate_online_m": 0.40, "ate_odom_m": 9.4, "cpu_ms_per_update": 120.0,
                                          "cpu_s": 53.0, "peak_rss_mb": 90.0},
                  "worst": {"ate_online_m": 0.67, "cpu_ms_per_update": 123.0},
@@ -173,6 +176,8 @@ SECTION_RESULTS = {
                  "closed_loop_builtin_fast": {"runs": 50, "reached_share": 1.0, "collisions": 0, "ratio_median": 1.57,
                                               "max_vel_x": 1.5}},
     "planning_peer": {"node": "/tmp/peers_ws/devel/lib/move_base/move_base", "runs": 20,
+                      "node_package": {"executable": "move_base", "package": "move_base", "version": "1.17.3",
+                                       "repository": "ros-planning/navigation", "commit": None},
                       "world": "/ws/data/maps/willow-full-0.05.yaml", "global_type": "navfn/NavfnROS",
                       "local_type": "dwa_local_planner/DWAPlannerROS", "max_vel_x": 1.0, "reached_share": 0.8,
                       "collisions": 0, "geodesic_ratio_median": 1.6, "ratio_median": None, "failed_pairs": [7, 20],
@@ -345,7 +350,8 @@ def test_readme_table_adds_no_count_when_every_target_of_the_section_is_met():
 
 def test_peer_section_names_the_executable_and_how_to_measure_it():
     rows = bench_report.rows_slam_bag_peer(SECTION_RESULTS["slam_bag_peer"])
-    assert rows[0]["figure"].startswith("slam_gmapping (/tmp/peers_ws/devel/lib/gmapping/slam_gmapping) live, CARMEN aces")
+    assert rows[0]["figure"].startswith("slam_gmapping (gmapping 1.4.2, ros-perception/slam_gmapping @ 0835d19) "
+                                        "live, CARMEN aces")
     assert rows[0]["measured"] == "0.400 m (0.670); odometry 9.40 m"
     assert rows[1]["measured"] == "120 ms (123); 438/440 407/439; 53 s; 90 MB"
     assert "--gmapping EXECUTABLE" in bench_report.measure_command("slam_bag_peer")
@@ -356,7 +362,7 @@ def test_peer_section_names_the_executable_and_how_to_measure_it():
 def test_planning_peer_section_names_the_executable_its_failed_pairs_and_how_to_measure_it():
     res = SECTION_RESULTS["planning_peer"]
     rows = bench_report.rows_planning_peer(res)
-    assert rows[0]["figure"].startswith("move_base (/tmp/peers_ws/devel/lib/move_base/move_base) live, "
+    assert rows[0]["figure"].startswith("move_base 1.17.3 (ros-planning/navigation) live, "
                                         "willow-full-0.05.yaml, 20 seeded pairs, navfn/NavfnROS + "
                                         "dwa_local_planner/DWAPlannerROS, max_vel_x 1.0 m/s")
     assert rows[0]["measured"] == "80% / 0 / 1.60 (-)"
@@ -378,8 +384,25 @@ def test_planning_peer_section_names_the_executable_its_failed_pairs_and_how_to_
     assert 'make bench BENCH_ARGS="--only planning_peer --move-base EXECUTABLE' in page
     readme = bench_report.render_readme_table(bench_report.merge(bench_report.empty_store(),
                                                                  [make_record("planning_peer", res, "ddddddd")]))
-    assert any(line.startswith("| move_base (/tmp/peers_ws/devel/lib/move_base/move_base) live") and
+    assert any(line.startswith("| move_base 1.17.3 (ros-planning/navigation) live") and
                "| 80% / 0 / 1.60 (-) | - | - | `ddddddd` |" in line for line in readme)   # its headline row
+
+
+def test_a_peer_node_is_named_by_its_package_never_by_a_path_of_the_machine_that_ran_it():
+    """The page once printed /tmp/peers_ws/devel/lib/move_base/move_base: a path that
+    exists on one machine and says nothing of the node's version (issue 43)."""
+    res = SECTION_RESULTS["planning_peer"]
+    unknown = dict(res, node_package=None)
+    assert bench_report.rows_planning_peer(unknown)[0]["figure"].startswith(
+        "move_base (a build outside the project) live")
+    rec = make_record("planning_peer", res, "ddddddd")
+    rec["command"] = ("tools/bench.py --only planning_peer --move-base /tmp/peers_ws/devel/lib/move_base/move_base "
+                      "--move-base-setup /tmp/peers_ws/devel/setup.bash")
+    page = bench_report.render_page(bench_report.merge(bench_report.empty_store(), [rec]))
+    assert "/tmp/" not in page
+    assert ("--move-base $PEER_WS/devel/lib/move_base/move_base --move-base-setup $PEER_WS/devel/setup.bash`"
+            " ($PEER_WS: the catkin workspace the real nodes were built in)") in page
+    assert bench_report.portable_command("tools/bench.py --only laser") == "tools/bench.py --only laser"
 
 
 def test_planning_core_json_keys_are_the_ones_the_page_reads():

@@ -93,10 +93,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import bench_report  # noqa: E402
-import profile_node  # noqa: E402  (where a profiled run's time goes)
-from roslaunch_session import RoslaunchSession, wait_for  # noqa: E402
+import bench_report  # a sibling (the page's records and rendering; --render needs nothing more)
 
 WS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(WS, "output")
@@ -146,10 +143,13 @@ def bench_sim_rtf_once(seconds=20.0, profile=None):
 
     rospy binds a process to one master, so each run is a child process (see
     bench_sim_rtf_runs) with its own launch. With profile (a path prefix) the simulator
-    runs under tools/profile_node.py and its stage shares are returned instead.
+    runs under summit_nav_common.testing.profile_node and its stage shares are returned
+    instead.
     """
     import psutil
     import rospy
+    from summit_nav_common.testing import profile_node
+    from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for
     from nav_msgs.msg import Odometry
     from rosgraph_msgs.msg import Clock
     from rospy.numpy_msg import numpy_msg
@@ -515,6 +515,23 @@ PEER_SECTIONS = {"slam_bag_peer": ("gmapping", "the real gmapping's slam_gmappin
                  "ekf_peer": ("ekf-node", "the real robot_localization's ekf_localization_node")}
 
 
+def with_node_package(measure, executable, source=None):
+    """measure() with the other executable's ROS package, version and sources in its
+    result (node_package): the page names it by them, not by its path on this machine.
+    source "OWNER/NAME@COMMIT" fills in what the package.xml and checkout do not say."""
+    def run():
+        from summit_nav_common.testing.provenance import ros_package_of
+        result = measure()
+        if result is not None:
+            pkg = ros_package_of(os.path.abspath(executable)) or {"executable": os.path.basename(executable)}
+            if source:
+                repository, _, commit = source.partition("@")
+                pkg.update(repository=pkg.get("repository") or repository, commit=pkg.get("commit") or commit or None)
+            result["node_package"] = pkg
+        return result
+    return run
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", action="append", help=", ".join(bench_report.SECTIONS) + " (repeatable)")
@@ -543,6 +560,10 @@ def main():
                     help="ekf_peer: the other ekf_localization_node (e.g. the real robot_localization's)")
     ap.add_argument("--ekf-node-setup", metavar="SETUP_BASH",
                     help="ekf_peer: a setup.bash the other executable's environment needs (sourced --extend)")
+    ap.add_argument("--peer-source", metavar="OWNER/NAME@COMMIT",
+                    help="*_peer: where the other executable's sources come from (e.g. "
+                         "ros-planning/navigation@9ad6441), recorded with its package and version when its "
+                         "package.xml or checkout does not say")
     ap.add_argument("--explore-worlds", nargs="+", choices=sorted(EXPLORE_RUNS),
                     help="explore: only these worlds (default all; willow takes about 40 min)")
     ap.add_argument("--profile", metavar="PREFIX", help=argparse.SUPPRESS)  # sim_rtf's profiled child
@@ -602,6 +623,10 @@ def main():
         "multi_robot": lambda: bench_multi_robot(min(args.runs, 3)),
         "e2e": bench_e2e,
     }
+    for section, (option, _) in PEER_SECTIONS.items():
+        if section in only:
+            measures[section] = with_node_package(measures[section], getattr(args, option.replace("-", "_")),
+                                                  args.peer_source)
     os.makedirs(OUT, exist_ok=True)
     command = shlex.join(["tools/bench.py"] + sys.argv[1:])
     report = {"machine": bench_report.machine(), "commit": bench_report.git_commit(), "records": {}}

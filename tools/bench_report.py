@@ -11,8 +11,8 @@ import datetime
 import json
 import math
 import os
+import re
 import statistics
-import subprocess
 import sys
 import threading
 import time
@@ -199,13 +199,32 @@ def rows_slam_bag(res):
     return out
 
 
+def node_label(res):
+    """How the page names another executable run in ours' place: by its ROS package,
+    version and sources (res["node_package"], recorded by tools/bench.py), never by its
+    path on the machine that ran it. E.g. "move_base 1.17.3 (ros-planning/navigation @
+    9ad6441)"; "slam_gmapping (gmapping 1.4.2, ...)" when the executable and its package
+    differ in name."""
+    pkg = res.get("node_package") or {}
+    exe = pkg.get("executable") or os.path.basename(res.get("node") or "") or "?"
+    if not pkg.get("package"):
+        return f"{exe} (a build outside the project)"
+    source = pkg.get("repository") or "sources not recorded"
+    if pkg.get("commit"):
+        source += f" @ {pkg['commit'][:7]}"
+    version = f" {pkg['version']}" if pkg.get("version") else ""
+    if exe == pkg["package"]:
+        return f"{exe}{version} ({source})"
+    return f"{exe} ({pkg['package']}{version}, {source})"
+
+
 def rows_slam_bag_peer(res):
     """The other node's figures on slam_bag's bags: no targets (it is the yardstick)."""
     out = []
-    node = os.path.basename(res.get("node") or "?")
+    node = node_label(res)
     for name, r in res["logs"].items():
         out += _bag_log_rows(
-            r, f"{node} ({res.get('node')}) live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, "
+            r, f"{node} live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, "
                f"odometry drift seeds {_seeds(r)} (its filter unseeded): online aligned ATE median (worst)",
             "... CPU per filter update median (worst); updates done / expected per seed (fewer: it "
             "fell behind the bag); node CPU; peak RSS")
@@ -250,10 +269,10 @@ def rows_slam_bag_karto(res):
 def rows_slam_bag_karto_peer(res):
     """The other slam_karto's figures on the same bags: no targets (it is the yardstick)."""
     out = []
-    node = os.path.basename(res.get("node") or "?")
+    node = node_label(res)
     for name, r in res["logs"].items():
         out += _bag_log_rows(
-            r, f"{node} ({res.get('node')}) live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, "
+            r, f"{node} live, CARMEN {name} bag at rosbag play rate {r['rate']:g}, "
                f"odometry drift seeds {_seeds(r)}: online aligned ATE median (worst)",
             "... CPU per map -> odom change median (worst); changes / open_karto's gate per seed; node CPU; "
             "peak RSS")
@@ -267,7 +286,8 @@ def rows_slam_replay_peer(res):
         seeds = [x["seed"] for x in r["runs"]]
         span = f"seeds {seeds[0]}-{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) else \
             "seeds " + ", ".join(map(str, seeds))
-        for who, label in (("real", f"the real gmapping's filter ({os.path.basename(r['replay'])}, seeded; CPU: "
+        player = node_label(dict(res, node=r["replay"]))
+        for who, label in (("real", f"the real gmapping's filter ({player}, seeded; CPU: "
                                     "the whole player, its map updates too)"),
                            ("ours", "ours (slam_bag_offline's replay: what the live node does; CPU: the filter "
                                     "alone)")):
@@ -394,7 +414,7 @@ def _ekf_rows(res, judged):
     """Rows of bench_ekf.py's result; judged: with the targets (ours), else none (the peer)."""
     med, n = res["median"], len(res["runs"])
     peer = (res.get("peer") or {}).get("median") if judged else None
-    node = os.path.basename(res.get("node") or "") or "ekf_localization_node (ours)"
+    node = node_label(res) if res.get("node") else "ekf_localization_node (ours)"
     out = []
     for key, label, unit, fmt in (("heading_deg", "heading error after the tour", "deg", ".2f"),
                                   ("ate_m", "ATE over the tour (no alignment)", "m", ".3f")):
@@ -522,14 +542,14 @@ def rows_planning_peer(res):
     (it is the yardstick). res: {"combos": {key: result}}, or one result (older runs)."""
     out = []
     for one in (res["combos"].values() if "combos" in res else [res]):
-        out += _rows_planning_peer_one(one)
+        out += _rows_planning_peer_one(dict(one, node_package=res.get("node_package") or one.get("node_package")))
     return out
 
 
 def _rows_planning_peer_one(res):
-    node = os.path.basename(res.get("node") or "?")
+    node = node_label(res)
     geo, plan = res["geodesic_ratio_median"], res.get("ratio_median")
-    out = [row(f"{node} ({res.get('node')}) live, {os.path.basename(res['world'])}, {res['runs']} seeded pairs, "
+    out = [row(f"{node} live, {os.path.basename(res['world'])}, {res['runs']} seeded pairs, "
                f"{res['global_type']} + {res['local_type']}"
                + (" dwa: true" if res.get("local_planner") == "trajectory-dwa" else "")
                + f", max_vel_x {res['max_vel_x']} m/s: reached / collisions / "
@@ -742,21 +762,13 @@ ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_c
 
 # ----- the run's context: commit, machine, load -------------------------------------------
 
-GENERATED = ("docs/bench.json", "docs/benchmarks.md", "README.md")  # written by a run: not "dirty"
-
-
 def git_commit(ws=WS):
-    """`git rev-parse --short HEAD`, plus "-dirty" when tracked files other than the ones a
-    run writes itself (GENERATED) differ from HEAD; None outside a git checkout."""
-    try:
-        head = subprocess.run(["git", "-C", ws, "rev-parse", "--short", "HEAD"], check=True,
-                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True).stdout.strip()
-        status = subprocess.run(["git", "-C", ws, "status", "--porcelain", "--untracked-files=no", "--", "."]
-                                + [f":(exclude){p}" for p in GENERATED], check=True,
-                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return None
-    return head + ("-dirty" if status.strip() else "")
+    """The workspace's commit, "-dirty" when tracked files other than the ones a run
+    writes itself differ from HEAD (summit_nav_common.testing.provenance); None outside a
+    git checkout. Imported here, not at the top: `--render` runs without the workspace's
+    setup sourced."""
+    from summit_nav_common.testing.provenance import git_commit as commit_of
+    return commit_of(ws)
 
 
 def cpu_model(path="/proc/cpuinfo"):
@@ -890,13 +902,26 @@ def table(rows):
     return lines
 
 
+# An executable or setup.bash of another catkin workspace (a peer node's) in a command line
+PEER_WORKSPACE_PATH = re.compile(r"(?<![\w$])/[^\s'\"]*?/(devel|install)(?=/)")
+
+
+def portable_command(command):
+    """The command with another workspace's location (where a peer node was built on the
+    machine that ran it) written as $PEER_WS: the page names such nodes by package and
+    version (node_label), and a reader's workspace is elsewhere."""
+    return PEER_WORKSPACE_PATH.sub(r"$PEER_WS/\1", command)
+
+
 def context_line(rec):
     m, load = rec["machine"], rec["load_average"]
     cpu = m.get("cpu_model") or "CPU model unknown"
+    command = portable_command(rec["command"])
+    peer_ws = " ($PEER_WS: the catkin workspace the real nodes were built in)" if command != rec["command"] else ""
     return (f"Commit `{rec['commit']}`, {rec['date']}, {m['cores']} cores ({cpu}), "
             f"load average during the run {load['mean_1min']:.2f} mean / {load['max_1min']:.2f} max "
             f"(1 min; {load['start'][0]:.2f} at start, {load['end'][0]:.2f} at end), "
-            f"{rec['wall_s']:.0f} s wall; command `{rec['command']}`.")
+            f"{rec['wall_s']:.0f} s wall; command `{command}`{peer_ws}.")
 
 
 def render_page(store):
