@@ -47,13 +47,13 @@ import time
 import numpy as np
 import yaml
 
+from summit_nav_common.geometry import pose_error
 from summit_nav_common.map_io import load_map
 from summit_xl_sim.sim import Simulation
 from summit_xl_sim.tour import TourParams, tour_command
 from summit_xl_sim.world import World
 
 from my_summit_localization.amcl_config import AmclConfig
-from my_summit_localization.motion_model import wrap_angle
 from my_summit_localization.particle_filter import ParticleFilter
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -180,12 +180,6 @@ class Wanderer:
         wz = float(np.clip(1.2 * self.goal_bearing, -0.8, 0.8))
         vx = float(np.clip(0.35 * (front - 0.6), 0.1, 0.6)) * max(0.2, math.cos(self.goal_bearing))
         return vx, wz
-
-
-def pose_error(est, truth):
-    """(position error [m], |yaw error| [rad])."""
-    return (math.hypot(est[0] - truth[0], est[1] - truth[1]),
-            abs(float(wrap_angle(est[2] - truth[2]))))
 
 
 def feed(pf, sim, state):

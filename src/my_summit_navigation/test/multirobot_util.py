@@ -15,9 +15,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseActionResult
 from nav_msgs.msg import Odometry, Path
 from std_msgs.msg import UInt32
-from summit_nav_common.geometry import quaternion_to_yaw as yaw_of
-
-from my_summit_navigation.multi_robot import pose_error
+from summit_nav_common.geometry import pose_error, quaternion_to_yaw as yaw_of
 
 
 class RobotWatch:

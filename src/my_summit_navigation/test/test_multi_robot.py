@@ -3,7 +3,9 @@ import math
 
 import pytest
 
-from my_summit_navigation.multi_robot import GoalError, goal_spot, pose_error, robot_namespace, robots_param
+from summit_nav_common.geometry import pose_error
+
+from my_summit_navigation.multi_robot import GoalError, goal_spot, robot_namespace, robots_param
 
 
 def test_robot_ids():

@@ -73,3 +73,9 @@ def _umask():
     m = os.umask(0)
     os.umask(m)
     return m
+
+
+def test_pose_error_is_the_distance_and_the_wrapped_yaw_difference():
+    d, a = g.pose_error((1.0, 1.0, math.pi - 0.1), (4.0, 5.0, -math.pi + 0.1))
+    assert d == pytest.approx(5.0) and a == pytest.approx(0.2)
+    assert isinstance(a, float) and g.pose_error((0.0, 0.0, 0.3), (0.0, 0.0, 0.3)) == (0.0, 0.0)

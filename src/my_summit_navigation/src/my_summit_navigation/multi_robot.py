@@ -10,7 +10,6 @@ import math
 import re
 
 from my_summit_localization.spots import Spot
-from summit_nav_common.geometry import wrap_angle
 
 # A ROS graph name's base: a letter, then letters, digits, underscores (REP 135 / names).
 _ROBOT_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -51,12 +50,6 @@ def goal_spot(goal_x, goal_y, goal_theta_deg):
             raise GoalError(f"parameter {name} = {v!r} is not finite")
         values.append(float(v))
     return Spot.from_xy_yaw(values[0], values[1], math.radians(values[2]))
-
-
-def pose_error(pose, goal):
-    """(distance [m], |yaw difference| [rad]) between two (x, y, yaw) poses."""
-    return (math.hypot(pose[0] - goal[0], pose[1] - goal[1]),
-            abs(wrap_angle(pose[2] - goal[2])))
 
 
 def robots_param(robots):

@@ -24,6 +24,12 @@ def angle_diff(a, b):
     return wrap_angle(np.asarray(a) - np.asarray(b) if isinstance(a, (list, tuple)) else a - b)
 
 
+def pose_error(a, b):
+    """(distance [m], |yaw difference| [rad]) between two poses (x, y, yaw), as floats:
+    how far an estimate is from the truth, or a robot from its goal."""
+    return math.hypot(a[0] - b[0], a[1] - b[1]), abs(float(wrap_angle(a[2] - b[2])))
+
+
 def compose(a, b, out=None):
     """Pose(s) a (+) b: b expressed in a's frame, returned in a's parent frame.
 

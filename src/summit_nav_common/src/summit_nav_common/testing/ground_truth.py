@@ -16,7 +16,8 @@ import rospy
 from nav_msgs.msg import Odometry
 from std_msgs.msg import UInt32
 
-from summit_nav_common.geometry import compose, inverse, quaternion_to_yaw, wrap_angle
+from summit_nav_common.geometry import compose, inverse, quaternion_to_yaw
+from summit_nav_common.geometry import pose_error  # noqa: F401  (the tests' gt.pose_error of poses in the map)
 from summit_nav_common.testing.waits import wait_for
 
 
@@ -40,11 +41,6 @@ def map_in_world():
     rospy.loginfo(f"map frame in the world: nominal {tuple(round(v, 3) for v in guess)}, registered "
                   f"({found[0]:.3f}, {found[1]:.3f}, {math.degrees(found[2]):.2f} deg)")
     return found
-
-
-def pose_error(est, truth):
-    """(position error [m], |yaw error| [rad]) of two (x, y, yaw)."""
-    return math.hypot(est[0] - truth[0], est[1] - truth[1]), abs(wrap_angle(est[2] - truth[2]))
 
 
 def truth_in_map(odom_msg, m_in_w):
