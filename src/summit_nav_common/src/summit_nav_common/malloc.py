@@ -1,0 +1,36 @@
+"""glibc's allocator set for a node whose threads churn large NumPy arrays.
+
+Why: glibc gives each thread that allocates its own arena (up to 8 per core) and keeps
+what is freed in it for reuse, and after a large block is freed it raises its mmap
+threshold (up to 32 MB), so later large arrays come from the heap and stay there. A
+node like move_base (30 threads: rospy's receivers, the costmaps' updates, the planner,
+the control loop), each thread allocating arrays of the costmap's size every cycle,
+then holds tens of MB it no longer uses (issue 43: each node at Python's floor plus the
+real node's memory). ``limit_arenas`` caps the arenas and fixes the mmap threshold, so
+an array above it is returned to the system when freed. Only where glibc is the C
+library; elsewhere it does nothing and says so.
+"""
+import ctypes
+import ctypes.util
+
+M_TRIM_THRESHOLD = -1
+M_MMAP_THRESHOLD = -3
+M_ARENA_MAX = -8
+
+
+def limit_arenas(arenas=2, mmap_threshold=256 * 1024, trim_threshold=1024 * 1024):
+    """Cap glibc's malloc arenas at `arenas`, hand blocks of `mmap_threshold` bytes or more
+    to mmap (fixed, not raised after a free) and trim the heap's top above
+    `trim_threshold` bytes. Call before the node starts its threads. Returns '' when
+    set, else why not (for the node's log)."""
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name)
+        mallopt = libc.mallopt
+    except (OSError, AttributeError, TypeError):
+        return f"malloc settings left at their defaults: no glibc mallopt in {name!r}"
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    failed = [what for what, (param, value) in {
+        "arena_max": (M_ARENA_MAX, arenas), "mmap_threshold": (M_MMAP_THRESHOLD, mmap_threshold),
+        "trim_threshold": (M_TRIM_THRESHOLD, trim_threshold)}.items() if mallopt(param, value) != 1]
+    return f"mallopt refused {', '.join(failed)}" if failed else ""
