@@ -16,7 +16,9 @@ log's corrected poses:
     within MAX_ATE_FINAL;
   - ~serialize_map -> ~deserialize_map (START_AT_FIRST_NODE) through the services gives
     back a graph of as many nodes, published as a map at once; a corrupt file is refused
-    with the reason and the node goes on.
+    with the reason and the node goes on;
+  - map_saver saves the node's map, and map_autosaver (started by the .test, ~autosave its
+    path) has saved it while the bag played.
 """
 import dataclasses
 import math
@@ -28,6 +30,7 @@ import threading
 import time
 import unittest
 
+import cv2
 import numpy as np
 import rospy
 import rostest
@@ -142,6 +145,17 @@ class SlamKartoCarmen(unittest.TestCase):
         with rec.lock:
             m2o = np.array(rec.m2o, float).reshape(-1, 4)
             markers = rec.markers
+        autosave = rospy.get_param("~autosave")
+        self.assertTrue(os.path.isfile(autosave + ".pgm") and os.path.isfile(autosave + ".yaml"),
+                        f"map_autosaver wrote no {autosave}.pgm / .yaml")
+        saved = os.path.join(tmp, "saved_map")
+        out = subprocess.run(["rosrun", "my_summit_mapping", "map_saver", "-f", saved], stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True, timeout=60)
+        self.assertEqual(out.returncode, 0, out.stdout)
+        latest = rospy.wait_for_message("/map", OccupancyGrid, timeout=10.0)
+        image = cv2.imread(saved + ".pgm", cv2.IMREAD_UNCHANGED)
+        self.assertIsNotNone(image, f"map_saver wrote no readable {saved}.pgm")
+        self.assertEqual(image.shape, (latest.info.height, latest.info.width))
         self.assertIsNotNone(markers, "no pose graph on /visualization_marker_array")
         loops, drawn = loop_edges(markers)
         self.assertTrue(loops, f"no loop-closing edge among the {drawn} nodes drawn")
