@@ -275,3 +275,15 @@ def test_bad_files_and_requests_are_refused_and_the_graph_kept(node_module, tmp_
     with pytest.raises(rospy.ServiceException, match="another laser"):
         node.on_deserialize(DeserializePoseGraphRequest(filename=other_path, match_type=start))
     np.testing.assert_allclose(node.mapper.node_poses(), kept)
+
+
+def test_a_rejected_loop_closure_is_logged_once(node_module):
+    """The core takes back a loop closure that would move a node too far and notes it in
+    KartoMapper.log; the node logs each note once, as a warning."""
+    module, subs, warnings = node_module
+    node, _ = make_node(module, subs, 20.0)
+    k = drive(node, subs, T0, T0 + 4.0)
+    node.mapper.log.append("loop closure node 3 -> node 40 rejected: it would move node 12 by 4.1 m")
+    k = drive(node, subs, T0 + 4.0, T0 + 6.0, k)
+    drive(node, subs, T0 + 6.0, T0 + 8.0, k)
+    assert sum("rejected: it would move node 12" in w for w in warnings) == 1, warnings
