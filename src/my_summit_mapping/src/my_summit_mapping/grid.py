@@ -40,10 +40,10 @@ Cell (i, j) covers world x in [i*res, (i+1)*res), y in [j*res, (j+1)*res): the g
 origin is the world origin, indices may be negative. Arrays are indexed [row=y, col=x].
 """
 import math
-from fractions import Fraction
 from typing import Dict, Optional, Set, Tuple
 
 import numpy as np
+from summit_nav_common.line_cells import line_cells, line_cells_reference
 from summit_nav_common.jit import njit
 
 PATCH_SHIFT = 6                  # log2 of the patch side [cells]
@@ -408,24 +408,10 @@ def bresenham_cells(start: np.ndarray, stop: np.ndarray):
     to stop (B, 2), vectorized: (cells (M, 2) int64 in line order, beam index (M,)).
 
     Along the major axis every cell is taken once; the minor coordinate of step k of n is
-    round(k * d / n) (halves rounded up) = floor((2 k d + n) / (2 n)). That is computed
-    with a float64 division, which is exact here: numerator and denominator are integers
-    far below 2^53 and IEEE division is correctly rounded, so an integer quotient comes out
-    exactly and any other stays at least 1 / (2 n) from the next integer (about twice as
-    fast as numpy's integer floor division).
+    round(k * d / n), halves rounded up: summit_nav_common.line_cells, ties "up".
     """
-    d = stop - start
-    n = np.abs(d).max(axis=1)                     # steps per line
-    counts = n + 1
-    beam = np.repeat(np.arange(len(start)), counts)
-    first = np.cumsum(counts) - counts
-    k2 = (2 * (np.arange(int(counts.sum())) - np.repeat(first, counts))).astype(np.float64)
-    n_rep = np.repeat(np.maximum(n, 1).astype(np.float64), counts)
-    cells = np.empty((len(k2), 2), np.int64)
-    for axis in range(2):
-        minor = np.floor((k2 * np.repeat(d[:, axis], counts) + n_rep) / (2.0 * n_rep))
-        cells[:, axis] = np.repeat(start[:, axis], counts) + minor.astype(np.int64)
-    return cells, beam
+    beam, x, y = line_cells(start[:, 0], start[:, 1], stop[:, 0], stop[:, 1], ties="up")
+    return np.column_stack([x, y]), beam
 
 
 def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
@@ -490,11 +476,8 @@ def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, reso
         ex = laser_pose[0] + length * math.cos(th)
         ey = laser_pose[1] + length * math.sin(th)
         x1, y1 = math.floor(ex / resolution), math.floor(ey / resolution)
-        n = max(abs(x1 - x0), abs(y1 - y0))
-        for k in range(n):
-            fx = Fraction(k * (x1 - x0), n) + Fraction(1, 2)
-            fy = Fraction(k * (y1 - y0), n) + Fraction(1, 2)
-            cell((x0 + math.floor(fx), y0 + math.floor(fy)))[VISITS] += 1
+        for c in line_cells_reference(x0, y0, x1, y1, ties="up")[:-1]:   # the end cell apart
+            cell(c)[VISITS] += 1
         if returned:
             c = cell((x1, y1))
             c[HITS] += 1

@@ -10,7 +10,7 @@ decay); documentation at wiki.ros.org/costmap_2d/hydro/{staticmap,obstacles,infl
 Each layer has the small interface of ``costmap.Layer`` and is chosen by the plugin
 type string of a costmap_2d YAML (``make_layer``). Everything is vectorized: clearing
 traces all rays at once (a vectorized walk along the exact rays, two samples per
-cell; ``ray_cells`` is the integer Bresenham-equivalent walk) and inflation is one exact distance transform (``grid_kernels.distance_transform``, OpenCV's to the bit).
+cell; ``ray_cells`` is the workspace's Bresenham walk, summit_nav_common.line_cells) and inflation is one exact distance transform (``grid_kernels.distance_transform``, OpenCV's to the bit).
 """
 import dataclasses
 import math
@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from summit_nav_common.grid_kernels import distance_transform
+from summit_nav_common.line_cells import line_cells, line_cells_reference
 from summit_nav_common.params import unread_notes
 
 from .cost_values import (FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE,
@@ -283,22 +284,10 @@ def ray_cells(x0, y0, x1, y1):
     """Cells on straight lines from cell (x0, y0) to cells (x1, y1), all rays at once.
 
     x0, y0: int start cell; x1, y1: (N,) int end cells. Returns (ray index (M,),
-    cx (M,), cy (M,)) for every cell of every ray, ends included: a DDA walk with one
-    cell per step of the dominant axis, the cells a Bresenham line visits.
+    cx (M,), cy (M,)) for every cell of every ray, ends included: costmap_2d's
+    raytraceLine (summit_nav_common.line_cells, halves away from zero).
     """
-    x1 = np.asarray(x1, dtype=np.int64)
-    y1 = np.asarray(y1, dtype=np.int64)
-    dx, dy = x1 - x0, y1 - y0
-    n = np.maximum(np.abs(dx), np.abs(dy))
-    counts = n + 1
-    ray = np.repeat(np.arange(n.size), counts)
-    starts = np.cumsum(counts) - counts
-    k = np.arange(ray.size) - np.repeat(starts, counts)
-    nn = np.maximum(n, 1)[ray]
-    # Integer rounding of x0 + k*dx/n (half away from zero) keeps the walk exact.
-    cx = x0 + _div_round(k * dx[ray], nn)
-    cy = y0 + _div_round(k * dy[ray], nn)
-    return ray, cx, cy
+    return line_cells(x0, y0, x1, y1, ties="away")
 
 
 SUPERSAMPLE = 2  # clearing samples per cell along a ray [1/cell]
@@ -324,37 +313,7 @@ def ray_cells_continuous(x0, y0, x1, y1):
             np.floor(y0 + t * dy[ray]).astype(np.int64))
 
 
-def _div_round(num, den):
-    """Integer num/den rounded to nearest, ties away from zero (den > 0)."""
-    return np.sign(num) * ((2 * np.abs(num) + den) // (2 * den))
-
-
-def raytrace_reference(x0, y0, x1, y1):
-    """The slow, obvious Bresenham line from (x0, y0) to (x1, y1), ends included (oracle)."""
-    cells = []
-    dx, dy = abs(x1 - x0), abs(y1 - y0)
-    sx, sy = (1 if x1 >= x0 else -1), (1 if y1 >= y0 else -1)
-    x, y = x0, y0
-    if dx >= dy:
-        err = dx // 2
-        for _ in range(dx):
-            cells.append((x, y))
-            x += sx
-            err += dy
-            if err >= dx:
-                y += sy
-                err -= dx
-    else:
-        err = dy // 2
-        for _ in range(dy):
-            cells.append((x, y))
-            y += sy
-            err += dx
-            if err >= dy:
-                x += sx
-                err -= dy
-    cells.append((x, y))
-    return cells
+raytrace_reference = line_cells_reference   # the oracle of ray_cells (ties away from zero)
 
 
 def cells_inside_convex(polygon, grid, inset, whole_cells=False):

@@ -97,6 +97,7 @@ from .dwa import DWAResult, HeldPlan
 from .params import ParamError
 from summit_nav_common.geometry import inverse, transform_points, wrap_angle
 from summit_nav_common.jit import njit
+from summit_nav_common.line_cells import line_cells_padded, line_cells_reference
 
 PRUNE_DIST = 1.0            # [m] prunePlan drops plan points until one this near the robot
 STOPPED_VEL = 1e-2          # [m/s, rad/s] TrajectoryPlannerROS: below this the robot counts as stopped
@@ -292,51 +293,9 @@ def world_to_cells(costmap, x, y):
     return mx, my, inside
 
 
-def bresenham(x0, y0, x1, y1):
-    """Cells of Bresenham lines from (x0, y0) to (x1, y1), ends included (base_local_planner's
-    LineIterator), for arrays of lines at once: (xs, ys, valid) each (..., L), L the
-    longest line's cell count; valid marks the cells each line really has.
-
-    Closed form of the iterator: after i steps the major axis has moved i cells and the
-    minor one floor((den // 2 + i * numadd) / den).
-    """
-    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int32) for v in (x0, y0, x1, y1))
-    dx, dy = np.abs(x1 - x0), np.abs(y1 - y0)
-    xmajor = (dx >= dy)[..., None]
-    den = np.maximum(dx, dy)[..., None]
-    numadd = np.minimum(dx, dy)[..., None]
-    i = np.arange(int(den.max()) + 1 if den.size else 1, dtype=np.int32)
-    valid = i <= den
-    minor = (den // 2 + i * numadd) // np.maximum(den, 1)
-    sx, sy = np.sign(x1 - x0)[..., None], np.sign(y1 - y0)[..., None]
-    xs = x0[..., None] + sx * np.where(xmajor, i, minor)
-    ys = y0[..., None] + sy * np.where(xmajor, minor, i)
-    return xs, ys, valid
-
-
-def line_cells_reference(x0, y0, x1, y1):
-    """The cells of one Bresenham line, by the iterator itself (test oracle of bresenham)."""
-    dx, dy = abs(x1 - x0), abs(y1 - y0)
-    sx, sy = (1 if x1 >= x0 else -1), (1 if y1 >= y0 else -1)
-    if dx >= dy:
-        den, num, numadd, npix = dx, dx // 2, dy, dx
-    else:
-        den, num, numadd, npix = dy, dy // 2, dx, dy
-    x, y, out = x0, y0, []
-    for _ in range(npix + 1):
-        out.append((x, y))
-        num += numadd
-        if num >= den:
-            num -= den
-            if dx >= dy:
-                y += sy
-            else:
-                x += sx
-        if dx >= dy:
-            x += sx
-        else:
-            y += sy
-    return out
+# base_local_planner's LineIterator: Bresenham with halves away from zero, as rows
+# (xs, ys, valid), and its oracle: summit_nav_common.line_cells.
+bresenham = line_cells_padded
 
 
 def _vertex_cells(costmap, polygon, x, y, th):
