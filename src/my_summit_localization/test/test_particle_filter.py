@@ -17,8 +17,9 @@ from summit_xl_sim.world import World
 
 from my_summit_localization.amcl_config import AmclConfig
 from my_summit_localization.particle_filter import (
-    ParticleFilter, bin_indices, cluster_hypotheses, cluster_labels, cluster_labels_dense, compose,
-    free_cell_centres, histogram_keys, inverse, kld_limit, low_variance_indices, weighted_pose_stats)
+    ParticleFilter, bin_indices, cluster_hypotheses, cluster_labels, compose, connected_components,
+    free_cell_centres, histogram_keys, inverse, kld_limit, low_variance_indices, particle_clusters,
+    weighted_pose_stats)
 
 WORLDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "summit_xl_sim", "worlds")
 BUILTIN = os.path.join(WORLDS, "course_building.yaml")
@@ -344,15 +345,46 @@ def test_clusters_split_far_groups_and_join_neighbours():
     assert abs(abs(hyps[1].mean[2]) - 3.1) < 0.05
 
 
+def scipy_cluster_labels(particles):
+    """Oracle: SciPy's 26-connected labelling of a dense box of the bins, one extra yaw
+    layer (a copy of layer 0) joined across the seam (the filter's clustering until it
+    dropped SciPy to save the node ~11 MB)."""
+    from scipy import ndimage
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components as scipy_components
+    ix, iy, ia = bin_indices(particles)
+    x0, y0 = int(ix.min()), int(iy.min())
+    occ = np.zeros((int(ix.max()) - x0 + 1, int(iy.max()) - y0 + 1, 37), bool)
+    occ[ix - x0, iy - y0, ia] = True
+    occ[:, :, 36] = occ[:, :, 0]
+    lab, n = ndimage.label(occ, structure=np.ones((3, 3, 3), bool))
+    a, b = lab[:, :, 0].ravel(), lab[:, :, 36].ravel()
+    seam = a > 0
+    graph = coo_matrix((np.ones(int(seam.sum()), np.int8), (a[seam], b[seam])), shape=(n + 1, n + 1))
+    _, merged = scipy_components(graph, directed=False)
+    return merged[lab[ix - x0, iy - y0, ia]]
+
+
 @pytest.mark.parametrize("n, spread", [(2000, 3.0), (3000, 20.0), (50, 40.0)])
-def test_dense_and_sparse_clustering_agree(n, spread):
+def test_clustering_agrees_with_scipy(n, spread):
     rng = np.random.default_rng(n)
     p = np.column_stack([rng.uniform(-spread, spread, n), rng.uniform(0, spread, n),
                          rng.uniform(-math.pi, math.pi, n)])
-    dense = cluster_labels_dense(*bin_indices(p))
+    dense = scipy_cluster_labels(p)
     sparse = cluster_labels(histogram_keys(p))
     pairs = set(zip(dense.tolist(), sparse.tolist()))
     assert len(pairs) == len(set(dense.tolist())) == len(set(sparse.tolist()))
+    # same numbering after compaction: clusters in the order of their first bin
+    np.testing.assert_array_equal(particle_clusters(p), np.unique(dense, return_inverse=True)[1])
+
+
+def test_connected_components_smallest_node_labels():
+    # 0-3-5 and 1-4 joined, 2 and 6 alone; a long chain needs several hooking rounds
+    np.testing.assert_array_equal(connected_components(7, np.array([5, 3, 4]), np.array([3, 0, 1])),
+                                  [0, 1, 2, 0, 1, 0, 6])
+    chain = np.arange(999)
+    np.testing.assert_array_equal(connected_components(1000, chain[::-1] + 1, chain[::-1]), np.zeros(1000))
+    np.testing.assert_array_equal(connected_components(3, np.array([], int), np.array([], int)), [0, 1, 2])
 
 
 def test_converged_flag(world):

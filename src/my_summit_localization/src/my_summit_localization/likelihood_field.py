@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from summit_nav_common.distance import distance_field
+from summit_nav_common.distance import bounded_distance_field, distance_field
 
 OCCUPIED = 100   # OccupancyGrid value amcl treats as an obstacle (occ_state +1)
 FREE = 0         # value amcl counts as free space (occ_state -1)
@@ -87,7 +87,8 @@ def obstacle_distance_field(data, resolution, max_dist):
     occupied = np.asarray(data) == OCCUPIED
     if not occupied.any():
         return np.full(occupied.shape, float(max_dist))
-    cells = distance_field(occupied)
+    # exact up to one cell beyond the cap; anything farther is capped anyway
+    cells = bounded_distance_field(occupied, max_dist / resolution + 1.0)
     return np.minimum(cells.astype(np.float64) * resolution, max_dist)
 
 

@@ -70,9 +70,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from summit_nav_common.geometry import compose, inverse
 
 from . import motion_model
@@ -84,9 +81,6 @@ BIN_YAW = math.radians(10.0)      # [rad]
 N_YAW_BINS = 36                   # 360 deg / 10 deg: yaw bins wrap around
 _KEY_OFFSET = 1 << 20             # shifts bin indices >= 0 for key packing [bins]
 _KEY_SPAN = 1 << 21               # range of a packed x or y bin index [bins]
-# Largest dense bin box [bins] labelled with ndimage (~4 MB of bool); beyond it the
-# sparse labelling is used.
-MAX_DENSE_BINS = 4_000_000
 # amcl's pf dist_threshold: the filter counts as converged when every particle is within
 # this distance of the mean along x and along y [m].
 CONVERGED_DIST = 0.5
@@ -136,11 +130,9 @@ def histogram_keys(particles):
 
 
 def particle_clusters(particles):
-    """Cluster label (N,) of each particle (dense labelling when the bins' box is small)."""
-    ix, iy, ia = bin_indices(particles)
-    labels = cluster_labels_dense(ix, iy, ia)
-    if labels is None:
-        labels = cluster_labels(((ix + _KEY_OFFSET) * _KEY_SPAN + (iy + _KEY_OFFSET)) * N_YAW_BINS + ia)
+    """Cluster label (N,) of each particle, 0..C-1, numbered in the order of each
+    cluster's first bin (the smallest (ix, iy, iyaw))."""
+    labels = cluster_labels(histogram_keys(particles))
     # compact to 0..C-1
     _, labels = np.unique(labels, return_inverse=True)
     return labels
@@ -155,30 +147,11 @@ def bin_indices(particles):
     return ix, iy, ia
 
 
-def cluster_labels_dense(ix, iy, ia):
-    """cluster_labels on a dense occupancy box of the bins: scipy.ndimage.label with
-    26-connectivity, one extra yaw layer (a copy of layer 0) to join across the seam.
-    Returns labels (N,), or None when the box would exceed MAX_DENSE_BINS."""
-    x0, y0 = int(ix.min()), int(iy.min())
-    nx, ny = int(ix.max()) - x0 + 1, int(iy.max()) - y0 + 1
-    if nx * ny * (N_YAW_BINS + 1) > MAX_DENSE_BINS:
-        return None
-    occ = np.zeros((nx, ny, N_YAW_BINS + 1), bool)
-    occ[ix - x0, iy - y0, ia] = True
-    occ[:, :, N_YAW_BINS] = occ[:, :, 0]
-    lab, n = ndimage.label(occ, structure=np.ones((3, 3, 3), bool))
-    # Labels of a cell in layer 0 and its copy in the extra layer are the same cluster.
-    a, b = lab[:, :, 0].ravel(), lab[:, :, N_YAW_BINS].ravel()
-    seam = a > 0
-    graph = coo_matrix((np.ones(int(seam.sum()), np.int8), (a[seam], b[seam])), shape=(n + 1, n + 1))
-    _, merged = connected_components(graph, directed=False)
-    return merged[lab[ix - x0, iy - y0, ia]]
-
-
 def cluster_labels(keys):
     """Cluster label (N,) of each particle from its packed bin key: connected components
     of occupied bins, adjacent when they differ by at most one in each index (yaw wraps).
-    Sparse version (sorted keys + searchsorted), for any spread of particles."""
+    A cluster's label is the index of its smallest key among the sorted distinct keys.
+    Sorted keys + searchsorted for the neighbours, so any spread of particles works."""
     uniq, inv = np.unique(keys, return_inverse=True)
     ia = uniq % N_YAW_BINS
     rest = uniq // N_YAW_BINS
@@ -194,10 +167,33 @@ def cluster_labels(keys):
         hit = uniq[pos] == nk
         rows.append(np.nonzero(hit)[0])
         cols.append(pos[hit])
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    graph = coo_matrix((np.ones(rows.size, np.int8), (rows, cols)), shape=(k, k)).tocsr()
-    _, bin_label = connected_components(graph, directed=False)
-    return bin_label[inv]
+    return connected_components(k, np.concatenate(rows), np.concatenate(cols))[inv]
+
+
+def connected_components(n, a, b):
+    """Component label (n,) of each of n nodes joined by the undirected edges (a[i],
+    b[i]): the smallest node index of its component.
+
+    Hooking and pointer jumping (Shiloach & Vishkin 1982), vectorized: every edge hooks
+    the larger of its two roots onto the smaller, then every node jumps to its root;
+    repeated until no edge joins two roots. A root only ever points lower, so the
+    smallest node of a component stays its root.
+    """
+    label = np.arange(n)
+    while True:
+        la, lb = label[a], label[b]
+        low = np.minimum(la, lb)
+        hooked = label.copy()
+        np.minimum.at(hooked, la, low)
+        np.minimum.at(hooked, lb, low)
+        while True:
+            jumped = hooked[hooked]
+            if np.array_equal(jumped, hooked):
+                break
+            hooked = jumped
+        if np.array_equal(hooked, label):
+            return label
+        label = hooked
 
 
 def weighted_pose_stats(particles, weights):

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import yaml
-from PIL import Image
 
 from summit_nav_common.files import write_atomic
 
@@ -229,6 +228,7 @@ def read_image(path):
     BMP and TGA colours come blue first. MapError for a file that is not an image or a
     pixel format map_server cannot read.
     """
+    from PIL import Image   # here: nodes that only hold maps (amcl, move_base) do not load Pillow
     try:
         with Image.open(path) as im:
             im.load()
