@@ -25,8 +25,8 @@ What the code does, in the order it runs:
 4. `ScanMatcher.match`: a coarse search over the whole window at twice the grid
    resolution and `coarse_angle_resolution`, then, when refining, a fine search around
    the coarse estimate at the grid resolution and `fine_search_angle_offset` (open_karto's
-   two passes); the covariance is the coarse pass's, whose window shows how the
-   response spreads (along a corridor, say), the fine pass only refines the pose. Large windows (the loop-closure search) run the coarse pass as a
+   two passes); the x-y covariance is the coarse pass's, whose window shows how the
+   response spreads (along a corridor, say), the heading variance the fine pass's. Large windows (the loop-closure search) run the coarse pass as a
    branch and bound (`correlate_bounded`): blocks of offsets are scored first on a grid
    max-pooled over the block (an upper bound of every offset inside, Olson's low
    resolution table), and only blocks whose bound can still reach the best response (or
@@ -41,6 +41,7 @@ from typing import Optional, Tuple
 
 import cv2
 import numpy as np
+from summit_nav_common.jit import njit
 
 GRID_OCCUPIED = 100              # value of a hit cell in the lookup grid [-]
 DISTANCE_PENALTY_GAIN = 0.2      # open_karto's gain on the squared offset / variance [-]
@@ -152,18 +153,22 @@ def smear_kernel(resolution: float, smear_deviation: float) -> np.ndarray:
 
 
 def _stamp(flat: np.ndarray, hits: np.ndarray, kernel: np.ndarray, width: int) -> None:
-    """flat[c + k] = max(flat[c + k], kernel[k]) for every hit cell c: the kernel's offsets
-    are written in groups of equal value, smallest value first, so the last write to a cell
-    is its largest value (within a group all writes agree)."""
+    """flat[c + k] = max(flat[c + k], kernel[k]) for every hit cell c (flat indices) and
+    kernel offset k (compiled: hits x kernel cells of small work each)."""
     half = kernel.shape[0] // 2
-    dy, dx = np.mgrid[-half:half + 1, -half:half + 1]
-    offsets = (dy * width + dx).reshape(-1)
-    vals = kernel.reshape(-1)
-    for v in np.unique(vals):
-        if v == 0:
-            continue
-        offs = offsets[vals == v]
-        flat[(hits[:, None] + offs[None, :]).reshape(-1)] = v
+    _stamp_kernel(flat, hits, kernel, half, width)
+
+
+@njit(cache=True, nogil=True)
+def _stamp_kernel(flat, hits, kernel, half, width):
+    size = 2 * half + 1
+    for c in hits:
+        for dy in range(size):
+            row = c + (dy - half) * width - half
+            for dx in range(size):
+                v = kernel[dy, dx]
+                if v > flat[row + dx]:
+                    flat[row + dx] = v
 
 
 def _penalties(dist2: np.ndarray, angle2: np.ndarray, s: MatcherSettings) -> Tuple[np.ndarray, np.ndarray]:
@@ -351,5 +356,8 @@ class ScanMatcher:
         fine = estimate(resp, offsets, angles, fine_center, s.resolution, s.resolution,
                         st.fine_search_angle_offset, pen, st)
         # the fine window is a cell wide: only the coarse surface shows how the response
-        # spreads (a corridor's length), so the covariance stays the coarse pass's
-        return MatchResult(fine.pose, fine.response, result.covariance)
+        # spreads in x-y (a corridor's length); the heading's spread shows at the fine
+        # pass's steps (the coarse ones, 2 deg, are wider than a good match's doubt)
+        cov = result.covariance.copy()
+        cov[2, 2] = fine.covariance[2, 2]
+        return MatchResult(fine.pose, fine.response, cov)

@@ -15,10 +15,11 @@ Sparse Pose Adjustment for 2D Mapping"); Olson 2009 for the matcher.
    `loop_match_maximum_variance_coarse` (an ambiguous match, e.g. along a corridor, has a
    wide spread); then a fine match from there that must reach
    `loop_match_minimum_response_fine`.
-4. `check_closure` (ours, beyond open_karto): after optimizing with the new loop edge, a
-   closure that moved any node by more than `loop_closure_max_correction` [m], or whose
-   edge still disagrees with the optimized poses by more than CHI2_BOUND (Mahalanobis,
-   3 degrees of freedom), is taken back: the edge is removed and the poses restored.
+4. `check_closure` (ours, beyond open_karto): the graph is optimized without and with the
+   new loop edge; a closure that moved any node by more than `loop_closure_max_correction`
+   [m], or that raised the optimum's chi2 by more than CHI2_BOUND (3 degrees of freedom,
+   p = 0.999) times the graph's own chi2 per degree of freedom (at least 1), is taken
+   back: the edge is removed and the poses restored.
 """
 from collections import deque
 from typing import List, Optional, Set, Tuple
@@ -28,35 +29,33 @@ import numpy as np
 from .optimizer import chi2_per_edge
 from .pose_graph import PoseGraph
 
-CHI2_BOUND = 16.27   # chi-square, 3 degrees of freedom, p = 0.999: a loop edge above this
-                     # after optimization contradicts the rest of the graph [-]
+CHI2_BOUND = 16.27   # chi-square, 3 degrees of freedom, p = 0.999: a loop edge that adds more
+                     # to the optimized graph's chi2 contradicts the rest of it [-]
 
 
-def near_linked(graph: PoseGraph, node_id: int, max_distance: float, use_barycenter: bool) -> Set[int]:
-    """Nodes reachable from node_id through edges, every one within max_distance [m] of it."""
-    origin = graph.nodes[node_id].position(use_barycenter)
+def near_linked(graph: PoseGraph, node_id: int, max_distance: float, positions: np.ndarray) -> Set[int]:
+    """Nodes reachable from node_id through edges, every one within max_distance [m] of it;
+    positions (N, 2): where the nodes are (PoseGraph.positions)."""
+    close = np.hypot(*(positions - positions[node_id]).T) <= max_distance
     seen = {node_id}
     todo = deque([node_id])
     while todo:
         k = todo.popleft()
         for m in graph.neighbours(k):
-            if m in seen:
-                continue
-            if np.hypot(*(graph.nodes[m].position(use_barycenter) - origin)) <= max_distance:
+            if m not in seen and close[m]:
                 seen.add(m)
                 todo.append(m)
     return seen
 
 
-def candidate_chain(graph: PoseGraph, node_id: int, near: Set[int], max_distance: float,
-                    min_chain: int, use_barycenter: bool, start: int = 0) -> Tuple[List[int], int]:
+def candidate_chain(node_id: int, near: Set[int], max_distance: float, min_chain: int,
+                    positions: np.ndarray, start: int = 0) -> Tuple[List[int], int]:
     """The next candidate chain among nodes start .. node_id - 1 (module docstring, step 2):
     (node ids, where to continue the search); ([], node_id) when there is none."""
-    origin = graph.nodes[node_id].position(use_barycenter)
+    close = np.hypot(*(positions[:node_id] - positions[node_id]).T) <= max_distance
     chain: List[int] = []
     for k in range(start, node_id):
-        close = np.hypot(*(graph.nodes[k].position(use_barycenter) - origin)) <= max_distance
-        if close:
+        if close[k]:
             if k in near:
                 chain = []
             else:
@@ -77,15 +76,20 @@ def closest_node(graph: PoseGraph, ids: List[int], pose: np.ndarray) -> int:
 
 
 def check_closure(graph: PoseGraph, edge, before: np.ndarray, after: np.ndarray,
-                  max_correction: float) -> Optional[str]:
+                  max_correction: float, chi2_without: float, chi2_with: float) -> Optional[str]:
     """Why the loop `edge` must be taken back (module docstring, step 4), or None.
-    before / after: the poses (N, 3) before and after optimizing with it."""
+    before / after: the poses (N, 3) before and after optimizing with it; chi2_without /
+    chi2_with: the graph's chi2 optimized without / with it."""
     moved = float(np.max(np.hypot(*(after[:, :2] - before[:, :2]).T))) if len(after) else 0.0
     if moved > max_correction:
         return (f"it would move a node by {moved:.2f} m (loop_closure_max_correction "
                 f"{max_correction:.2f} m)")
-    chi2 = float(chi2_per_edge(after, np.array([edge.i]), np.array([edge.j]), edge.measurement[None, :],
-                               edge.information[None, :, :])[0])
-    if chi2 > CHI2_BOUND:
-        return f"its edge disagrees with the optimized graph (chi2 {chi2:.1f} > {CHI2_BOUND})"
+    # the graph's own misfit per degree of freedom scales the test: scan-match covariances
+    # are optimistic, and a right closure then adds as much per residual as the rest
+    dof = 3 * (len(graph.edges) - 1) - 3 * (len(graph.nodes) - 1)
+    scale = max(1.0, chi2_without / dof) if dof > 0 else 1.0
+    added = chi2_with - chi2_without
+    if added > CHI2_BOUND * scale:
+        return (f"the graph cannot take it: chi2 {chi2_without:.1f} -> {chi2_with:.1f} "
+                f"(bound +{CHI2_BOUND * scale:.1f})")
     return None

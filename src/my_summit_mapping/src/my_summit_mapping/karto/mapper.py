@@ -20,9 +20,13 @@ For each scan (add_scan):
    `link_scan_maximum_distance`, not in the buffer) whose match reaches
    `link_match_minimum_response_fine` (open_karto's AddEdges / LinkNearChains).
 5. Loop closing (loop_closure): candidate chains, coarse then fine match; an accepted
-   closure adds a "loop" edge, the graph is optimized (optimizer), and the closure is
-   taken back if it moved any node by more than `loop_closure_max_correction` or its
-   edge contradicts the optimized graph.
+   match adds a "loop" edge and the graph is optimized (optimizer) without and with it;
+   the closure is taken back (and logged in `log`) if it moved any node by more than
+   `loop_closure_max_correction` or raised the optimum's chi2 beyond what one right
+   edge adds (loop_closure.check_closure).
+
+The graph is optimized only when a loop closes (as open_karto); the edges added in
+between (running buffer, near chains) wait for the next closure.
 
 map -> odom is the latest node's corrected pose times the inverse of its odometry pose.
 """
@@ -35,12 +39,18 @@ import numpy as np
 
 from . import correlative_matcher as cm
 from . import loop_closure as lc
-from .optimizer import optimize_graph
+from .optimizer import optimize, optimize_graph
 from .pose_graph import Node, PoseGraph, between, compose, inverse, transform_points, wrap
 from .render import render
 
 ODOMETRY_COVARIANCE = (0.05 ** 2, 0.05 ** 2, math.radians(3.0) ** 2)  # per-step odometry edge
                                    # covariance when no scan match is available [m^2, m^2, rad^2]
+QUERY_RANGE_MARGIN = 1.0  # a scan matches only its hits this much closer than the range threshold,
+                          # while its hits up to the threshold serve as reference: otherwise the
+                          # far edge of what the reference saw pulls every match backwards
+                          # (its farthest hits score only where the reference reaches) [m]
+OPTIMIZE_ON_NEAR_CHAINS = False # optimize when a near chain is linked (ours; open_karto waits
+                                # for the next loop closure)
 RESUME_COVARIANCE = (1.0, 1.0, math.radians(30.0) ** 2)  # a new session's first node where its
                                    # scan matched nothing: start_at's pose, loosely [m^2, m^2, rad^2]
 
@@ -192,6 +202,7 @@ class KartoMapper:
         self._last_odom: Optional[np.ndarray] = None
         self._anchor: Optional[Tuple[np.ndarray, np.ndarray]] = None   # (map pose, odom pose) from start_at
         self.log: List[str] = []       # rejected closures and other notes, newest last
+        self.closure_chi2: List[Tuple[float, float, int]] = []  # (chi2 before, after, edges) per closure tried
         self.stats = dict(nodes=0, loop_closures=0, rejected_loop_closures=0, scans_processed=0,
                           scans_received=0, optimizations=0)
 
@@ -226,15 +237,25 @@ class KartoMapper:
         return abs(d[2]) >= p.minimum_travel_heading or math.hypot(d[0], d[1]) >= p.minimum_travel_distance
 
     def _points(self, r: np.ndarray) -> np.ndarray:
+        return self._points_and_reference(r)[0]
+
+    def _points_and_reference(self, r: np.ndarray):
+        """(hit points to match (k, 2), reference points (m, 2)) in the base frame of ranges
+        r (n,): readings within [range_min, min(range_max, range_threshold)], those to
+        match QUERY_RANGE_MARGIN closer."""
         lim = min(self.laser.range_max, self.params.range_threshold)
         with np.errstate(invalid="ignore"):
             ok = np.isfinite(r) & (r >= self.laser.range_min) & (r <= lim) & (r > 0.0)
         a = self._angles[ok]
-        return transform_points(self._mount, np.column_stack((r[ok] * np.cos(a), r[ok] * np.sin(a))))
+        local = np.column_stack((r[ok] * np.cos(a), r[ok] * np.sin(a)))
+        ref_only = np.hypot(local[:, 0], local[:, 1]) > lim - QUERY_RANGE_MARGIN
+        pts_all = transform_points(self._mount, local)
+        pts = pts_all[~ref_only]
+        return pts, pts_all
 
     def _process(self, r, odom, stamp) -> ScanResult:
         p = self.params
-        pts = self._points(r)
+        pts, ref_pts = self._points_and_reference(r)
         resumed = self._anchor is not None and bool(self.graph.nodes)
         if self._anchor is not None:
             map_pose, odom_at = self._anchor
@@ -250,13 +271,13 @@ class KartoMapper:
         # a new session (start_at) matches against the old nodes around its start
         reference_ids = self._running if not resumed else self._nodes_near(predicted[:2])
         if p.use_scan_matching and reference_ids and len(pts):
-            ref = np.vstack([self.graph.nodes[k].points_in_map() for k in reference_ids])
+            ref = np.vstack([self.graph.nodes[k].reference_in_map() for k in reference_ids])
             match = self._sequential.match(pts, ref, predicted, penalize=True, refine=True)
             response = match.response
             if response > cm.RESPONSE_TIE:
                 predicted = match.pose
         node = Node(id=len(self.graph.nodes), stamp=stamp, odom_pose=odom.copy(), pose=predicted.copy(),
-                    ranges=r.astype(np.float32), points=pts,
+                    ranges=r.astype(np.float32), points=pts, reference=ref_pts,
                     barycenter=pts.mean(axis=0) if len(pts) else np.zeros(2))
         nid = self.graph.add_node(node)
         if resumed:
@@ -318,15 +339,16 @@ class KartoMapper:
         and that are not in the running buffer, matched (not penalized)."""
         p = self.params
         g = self.graph
-        bary = p.use_scan_barycenter
-        near = lc.near_linked(g, node.id, p.link_scan_maximum_distance, bary)
+        positions = g.positions(p.use_scan_barycenter)
+        near = lc.near_linked(g, node.id, p.link_scan_maximum_distance, positions)
         running = set(self._running)
         done = set(running) | {node.id}
-        origin = node.position(bary)
+        within = np.hypot(*(positions - positions[node.id]).T) <= p.link_scan_maximum_distance
 
         def close(k):
-            return np.hypot(*(g.nodes[k].position(bary) - origin)) <= p.link_scan_maximum_distance
+            return within[k]
 
+        linked = False
         for k in sorted(near - done):
             if k in done:
                 continue
@@ -344,11 +366,16 @@ class KartoMapper:
                 hi += 1
             if len(chain) < p.loop_match_minimum_chain_size:
                 continue
-            ref = np.vstack([g.nodes[c].points_in_map() for c in chain])
+            ref = np.vstack([g.nodes[c].reference_in_map() for c in chain])
             m = self._sequential.match(node.points, ref, node.pose, penalize=False, refine=True)
             if m.response >= p.link_match_minimum_response_fine - cm.RESPONSE_TIE:
                 c = lc.closest_node(g, chain, m.pose)
                 g.add_edge(c, node.id, "sequential", between(g.nodes[c].pose, m.pose), covariance=m.covariance)
+                linked = True
+        if linked and OPTIMIZE_ON_NEAR_CHAINS:
+            # a near chain is a small loop closed: use it now, not at the next loop closure
+            g.set_poses(optimize_graph(g).poses)
+            self.stats["optimizations"] += 1
 
     def _add_running(self, nid: int) -> None:
         p = self.params
@@ -365,16 +392,16 @@ class KartoMapper:
         p = self.params
         g = self.graph
         node = g.nodes[nid]
-        bary = p.use_scan_barycenter
-        near = lc.near_linked(g, nid, p.loop_search_maximum_distance, bary)
+        positions = g.positions(p.use_scan_barycenter)
+        near = lc.near_linked(g, nid, p.loop_search_maximum_distance, positions)
         start = 0
         closed = False
         while True:
-            chain, start = lc.candidate_chain(g, nid, near, p.loop_search_maximum_distance,
-                                              p.loop_match_minimum_chain_size, bary, start)
+            chain, start = lc.candidate_chain(nid, near, p.loop_search_maximum_distance,
+                                              p.loop_match_minimum_chain_size, positions, start)
             if not chain:
                 return closed
-            ref = np.vstack([g.nodes[c].points_in_map() for c in chain])
+            ref = np.vstack([g.nodes[c].reference_in_map() for c in chain])
             coarse = self._loop.match(node.points, ref, node.pose, penalize=False, refine=False,
                                       min_response=p.loop_match_minimum_response_coarse)
             if not (coarse.response >= p.loop_match_minimum_response_coarse
@@ -386,21 +413,27 @@ class KartoMapper:
                 continue
             if self._close(chain, nid, fine):
                 closed = True
-                near = lc.near_linked(g, nid, p.loop_search_maximum_distance, bary)
+                positions = g.positions(p.use_scan_barycenter)
+                near = lc.near_linked(g, nid, p.loop_search_maximum_distance, positions)
 
     def _close(self, chain, nid, fine) -> bool:
         g = self.graph
         before = g.poses()
-        saved = before[nid].copy()
-        g.nodes[nid].pose = fine.pose.copy()
+        without = optimize_graph(g)
+        g.set_poses(without.poses)
         k = lc.closest_node(g, chain, fine.pose)
-        edge = g.add_edge(k, nid, "loop", between(g.nodes[k].pose, fine.pose), covariance=fine.covariance)
-        result = optimize_graph(g)
-        self.stats["optimizations"] += 1
-        why = lc.check_closure(g, edge, before, result.poses, self.params.loop_closure_max_correction)
+        edge = g.add_edge(k, nid, "loop", between(before[k], fine.pose), covariance=fine.covariance)
+        start = without.poses.copy()
+        start[nid] = fine.pose
+        i, j, z, info = g.edge_arrays()
+        result = optimize(start, i, j, z, info)
+        self.stats["optimizations"] += 2
+        self.closure_chi2.append((without.chi2_after, result.chi2_after, len(g.edges)))
+        why = lc.check_closure(g, edge, before, result.poses, self.params.loop_closure_max_correction,
+                               without.chi2_after, result.chi2_after)
         if why is not None:
             g.remove_edge(edge)
-            g.nodes[nid].pose = saved
+            g.set_poses(before)
             self.stats["rejected_loop_closures"] += 1
             self.log.append(f"loop closure node {k} -> node {nid} rejected: {why}")
             return False

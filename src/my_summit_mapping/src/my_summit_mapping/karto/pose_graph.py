@@ -56,9 +56,14 @@ class Node:
     ranges: np.ndarray         # (n,) float32 ranges as received [m]
     points: np.ndarray         # (k, 2) hit points used for matching, base frame [m]
     barycenter: np.ndarray     # (2,) mean of points, base frame [m] (the node's own position if none)
+    reference: np.ndarray = None  # (m, 2) points this scan offers as a reference, base
+                                  # frame [m] (points if None)
 
     def points_in_map(self) -> np.ndarray:
         return transform_points(self.pose, self.points)
+
+    def reference_in_map(self) -> np.ndarray:
+        return transform_points(self.pose, self.points if self.reference is None else self.reference)
 
     def position(self, use_barycenter: bool) -> np.ndarray:
         """Where the node is for distance tests: its scan's barycenter or its base [m]."""
@@ -119,6 +124,15 @@ class PoseGraph:
     def set_poses(self, poses: np.ndarray) -> None:
         for node, p in zip(self.nodes, poses):
             node.pose = np.array([p[0], p[1], float(wrap(p[2]))])
+
+    def positions(self, use_barycenter: bool) -> np.ndarray:
+        """Node.position of every node (N, 2) [m], in one vectorized step."""
+        poses = self.poses()
+        if not use_barycenter or not len(poses):
+            return poses[:, :2].copy()
+        b = np.array([n.barycenter for n in self.nodes])
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        return np.column_stack((poses[:, 0] + c * b[:, 0] - s * b[:, 1], poses[:, 1] + s * b[:, 0] + c * b[:, 1]))
 
     def edge_arrays(self):
         """(i (E,), j (E,), measurements (E, 3), information (E, 3, 3)) for the optimizer."""

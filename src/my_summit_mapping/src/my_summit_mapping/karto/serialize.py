@@ -120,9 +120,10 @@ def load_mapper(cls, path: str, params=None):
     mapper = cls(params if params is not None else saved, laser)
     for k in range(n):
         r = a["ranges"][k].astype(float)
-        pts = mapper._points(r)
+        pts, ref = mapper._points_and_reference(r)
         mapper.graph.add_node(Node(id=k, stamp=float(a["stamps"][k]), odom_pose=a["odom_poses"][k].copy(),
                                    pose=a["poses"][k].copy(), ranges=a["ranges"][k].copy(), points=pts,
+                                   reference=ref,
                                    barycenter=pts.mean(axis=0) if len(pts) else np.zeros(2)))
     for (i, j), kind, z, info in zip(a["edge_ij"], a["edge_kind"], a["edge_z"], a["edge_info"]):
         mapper.graph.add_edge(int(i), int(j), EDGE_KINDS[int(kind)], z, information=info)
