@@ -287,3 +287,23 @@ def test_a_rejected_loop_closure_is_logged_once(node_module):
     k = drive(node, subs, T0 + 4.0, T0 + 6.0, k)
     drive(node, subs, T0 + 6.0, T0 + 8.0, k)
     assert sum("rejected: it would move node 12" in w for w in warnings) == 1, warnings
+
+
+def test_the_node_feeds_the_core_what_an_offline_caller_would(node_module):
+    """Laser geometry from tf and the scan, odometry from tf at each stamp, ranges as
+    received: the node's graph is the one KartoMapper makes from the same drive offline."""
+    module, subs, _warnings = node_module
+    node, buffer = make_node(module, subs, 20.0)
+    k = drive(node, subs, T0, T0 + 12.0)
+    offline = module.KartoMapper(node.params, module.LaserGeometry(
+        float(ANGLES[0]), float(ANGLES[1] - ANGLES[0]), len(ANGLES), 0.05, RANGE_MAX, mount=(LASER_X, 0.0, 0.0)))
+    for j, t in enumerate(np.arange(T0, T0 + 12.0, 1.0 / SCAN_RATE)):
+        scan = scan_at(j, float(t))
+        odom = buffer.lookup_transform("odom", "base_link", scan.header.stamp).transform   # as the node gets it
+        yaw = 2.0 * np.arctan2(odom.rotation.z, odom.rotation.w)
+        offline.add_scan(np.asarray(scan.ranges, float), (odom.translation.x, odom.translation.y, yaw),
+                         scan.header.stamp.to_sec())
+    assert k == j + 1
+    np.testing.assert_allclose(node.mapper.node_stamps(), offline.node_stamps())
+    np.testing.assert_allclose(node.mapper.node_poses(), offline.node_poses(), atol=1e-6)
+    np.testing.assert_allclose(node.map_to_odom, offline.map_to_odom(), atol=1e-6)
