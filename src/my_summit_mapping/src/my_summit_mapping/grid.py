@@ -1,4 +1,4 @@
-"""Copy-on-write patched occupancy grid (gmapping's ScanMatcherMap), compiled with numba.
+"""Copy-on-write patched occupancy grid (gmapping's ScanMatcherMap), its ray tracing compiled.
 
 Reference: Grisetti, Stachniss, Burgard 2007, "Improved Techniques for Grid Mapping with
 Rao-Blackwellized Particle Filters", IEEE T-RO 23(1); GMapping's HierarchicalArray2D
@@ -31,9 +31,10 @@ the first time one of the sharers writes to it (copy-on-write), so 100 particles
 lineages merged cost little more than one map, and compiled code can read any
 particle's cells through a small table of slot numbers (patch_table).
 
-Ray tracing (`PatchGrid.integrate_scan`) is compiled: the patches the scan's lines
-touch are made writable, then every beam's Bresenham line is walked into them
-(`_trace_into`). `trace_scan` is the vectorized numpy version into a window and
+Ray tracing (`PatchGrid.integrate_scan`) is compiled ahead of time (C in
+summit_nav_common/csrc/patch_grid.c, loaded by summit_nav_common.native: no numba, whose
+LLVM would cost the node ~60-100 MB): the patches the scan's lines touch are made
+writable, then every beam's Bresenham line is walked into them (`snc_trace_into`). `trace_scan` is the vectorized numpy version into a window and
 `trace_scan_reference` the slow, obvious per-beam one: the test oracles.
 
 Cell (i, j) covers world x in [i*res, (i+1)*res), y in [j*res, (j+1)*res): the grid's
@@ -44,7 +45,7 @@ from typing import Dict, Optional, Set, Tuple
 
 import numpy as np
 from summit_nav_common.line_cells import line_cells, line_cells_reference
-from summit_nav_common.jit import njit
+from summit_nav_common.native import library as _native
 
 PATCH_SHIFT = 6                  # log2 of the patch side [cells]
 PATCH_CELLS = 1 << PATCH_SHIFT   # patch side, 64 cells = 3.2 m at 0.05 m [cells]
@@ -262,8 +263,9 @@ class PatchGrid:
         for py, px in keys:
             self._writable_slot((int(py), int(px)))
         py0, px0, rows, cols, table = self.patch_table()
-        _trace_into(self.pool.store, table, py0, px0, cols, start, end_cells, ends, is_hit, res,
-                    float(COUNT_LIMIT))
+        _native().snc_trace_into(self.pool.store, PATCH_SHIFT, table, py0, px0, cols, start, end_cells,
+                                 np.ascontiguousarray(ends), is_hit.view(np.uint8), len(end_cells), res,
+                                 float(COUNT_LIMIT))
 
     def add_hits(self, laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarray,
                  max_urange: float, max_range: float) -> None:
@@ -284,8 +286,8 @@ class PatchGrid:
         for py, px in np.unique(cells[:, ::-1] >> PATCH_SHIFT, axis=0):
             self._writable_slot((int(py), int(px)))
         py0, px0, rows, cols, table = self.patch_table()
-        _add_hits_into(self.pool.store, table, py0, px0, cols, cells, ends, self.resolution,
-                       float(COUNT_LIMIT))
+        _native().snc_add_hits_into(self.pool.store, PATCH_SHIFT, table, py0, px0, cols, cells, np.ascontiguousarray(ends),
+                                    len(cells), self.resolution, float(COUNT_LIMIT))
 
     # ------------------------------------------------------------------ output
     def occupancy_grid(self, occ_thresh: float,
@@ -488,74 +490,15 @@ def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, reso
 
 
 # ------------------------------------------------------------ compiled tracing
-@njit(cache=True, nogil=True)
-def _line_cell(start, d, n, k, axis):
-    """Cell coordinate `axis` of step k of n on the Bresenham line start -> start + d
-    (bresenham_cells' rounding: floor((2 k d + n) / (2 n)), in integers)."""
-    if n == 0:
-        return start[axis]
-    return start[axis] + (2 * k * d[axis] + n) // (2 * n)
-
-
-@njit(cache=True, nogil=True)
 def _touched_patches(start, end_cells):
-    """Patch keys (M, 2) [py, px] the Bresenham lines from start (2,) to end_cells (B, 2) pass."""
-    lo_x, lo_y = start[0], start[1]
-    hi_x, hi_y = start[0], start[1]
-    for b in range(end_cells.shape[0]):
-        lo_x, hi_x = min(lo_x, end_cells[b, 0]), max(hi_x, end_cells[b, 0])
-        lo_y, hi_y = min(lo_y, end_cells[b, 1]), max(hi_y, end_cells[b, 1])
-    px0, py0 = lo_x >> PATCH_SHIFT, lo_y >> PATCH_SHIFT
-    cols, rows = (hi_x >> PATCH_SHIFT) - px0 + 1, (hi_y >> PATCH_SHIFT) - py0 + 1
+    """Patch keys (M, 2) [py, px], in increasing order, that the Bresenham lines from cell
+    start (2,) to end_cells (B, 2) pass (the walk is snc_touched_patches)."""
+    lo = np.minimum(end_cells.min(axis=0), start) >> PATCH_SHIFT
+    hi = np.maximum(end_cells.max(axis=0), start) >> PATCH_SHIFT
+    px0, py0 = int(lo[0]), int(lo[1])
+    cols, rows = int(hi[0]) - px0 + 1, int(hi[1]) - py0 + 1
     mark = np.zeros(rows * cols, np.uint8)
-    d = np.empty(2, np.int64)
-    for b in range(end_cells.shape[0]):
-        d[0], d[1] = end_cells[b, 0] - start[0], end_cells[b, 1] - start[1]
-        n = max(abs(d[0]), abs(d[1]))
-        for k in range(n + 1):
-            x, y = _line_cell(start, d, n, k, 0), _line_cell(start, d, n, k, 1)
-            mark[((y >> PATCH_SHIFT) - py0) * cols + (x >> PATCH_SHIFT) - px0] = 1
-    idx = np.nonzero(mark)[0]
-    out = np.empty((len(idx), 2), np.int64)
-    for i in range(len(idx)):
-        out[i, 0] = idx[i] // cols + py0
-        out[i, 1] = idx[i] % cols + px0
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _trace_into(store, table, py0, px0, cols, start, end_cells, ends, is_hit, resolution, count_limit):
-    """trace_scan's counting, straight into the pool's patches (every patch the lines pass
-    must be in `table` and writable). A patch whose cell would pass count_limit visits is
-    halved first."""
-    d = np.empty(2, np.int64)
-    for b in range(end_cells.shape[0]):
-        d[0], d[1] = end_cells[b, 0] - start[0], end_cells[b, 1] - start[1]
-        n = max(abs(d[0]), abs(d[1]))
-        last = n if is_hit[b] else n - 1     # a beam cut at maxUrange leaves its end cell alone
-        for k in range(last + 1):
-            x, y = _line_cell(start, d, n, k, 0), _line_cell(start, d, n, k, 1)
-            slot = table[((y >> PATCH_SHIFT) - py0) * cols + (x >> PATCH_SHIFT) - px0]
-            r, c = y & (PATCH_CELLS - 1), x & (PATCH_CELLS - 1)
-            if store[slot, VISITS, r, c] + 1.0 > count_limit:
-                store[slot] *= 0.5
-            store[slot, VISITS, r, c] += 1.0
-            if k == n:
-                store[slot, HITS, r, c] += 1.0
-                store[slot, SUM_X, r, c] += ends[b, 0] - x * resolution
-                store[slot, SUM_Y, r, c] += ends[b, 1] - y * resolution
-
-
-@njit(cache=True, nogil=True)
-def _add_hits_into(store, table, py0, px0, cols, cells, ends, resolution, count_limit):
-    """PatchGrid.add_hits' counting, straight into the pool's (writable) patches."""
-    for b in range(cells.shape[0]):
-        x, y = cells[b, 0], cells[b, 1]
-        slot = table[((y >> PATCH_SHIFT) - py0) * cols + (x >> PATCH_SHIFT) - px0]
-        r, c = y & (PATCH_CELLS - 1), x & (PATCH_CELLS - 1)
-        if store[slot, VISITS, r, c] + 1.0 > count_limit:
-            store[slot] *= 0.5
-        store[slot, VISITS, r, c] += 1.0
-        store[slot, HITS, r, c] += 1.0
-        store[slot, SUM_X, r, c] += ends[b, 0] - x * resolution
-        store[slot, SUM_Y, r, c] += ends[b, 1] - y * resolution
+    _native().snc_touched_patches(PATCH_SHIFT, np.ascontiguousarray(start, np.int64), end_cells, len(end_cells), py0, px0,
+                                  cols, mark)
+    idx = np.flatnonzero(mark)
+    return np.column_stack((idx // cols + py0, idx % cols + px0))

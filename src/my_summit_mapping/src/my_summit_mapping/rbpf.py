@@ -58,8 +58,9 @@ def normalized_weights(log_weights: np.ndarray, ogain: float) -> Tuple[np.ndarra
 
 
 def warm_up() -> None:
-    """Run every compiled kernel once on a tiny case, so that a node pays numba's
-    compilation (or cache load) before its first scan, not during it."""
+    """Run every compiled kernel once on a tiny case, so that a node loads the kernels'
+    library (summit_nav_common.native) before its first scan, and fails at its start,
+    not at that scan, when the library is missing."""
     angles = np.linspace(-1.5, 1.5, 8)
     slam = RbpfSlam(SlamConfig(particles=2, xmin=-1.0, ymin=-1.0, xmax=1.0, ymax=1.0),
                     np.random.default_rng(0))

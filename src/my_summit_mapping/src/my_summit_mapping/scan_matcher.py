@@ -19,10 +19,11 @@ Hill climbing (ScanMatcher::optimize): from the odometry-moved pose try +-lstep 
 y (world axes) and +-astep in theta, move to the best improving neighbour; when none
 improves, halve both steps; stop after `iterations` halvings without improvement.
 
-Speed: the score and the climb are compiled (numba) and read every particle's cells
-straight from the grids' shared PatchPool through per-particle tables of patch slots
-(MapTables). They release the GIL (nogil): the node's scan and tf threads go on while the
-filter thread matches. `score_reference` / `optimize_reference` compute the same with
+Speed: the score and the climb are compiled ahead of time (C in
+summit_nav_common/csrc/patch_grid.c, called through ctypes: summit_nav_common.native) and
+read every particle's cells straight from the grids' shared PatchPool through
+per-particle tables of patch slots (MapTables). ctypes releases the GIL during the call:
+the node's scan and tf threads go on while the filter thread matches. `score_reference` / `optimize_reference` compute the same with
 plain Python over PatchGrid.read_layers: the test oracles.
 """
 import math
@@ -30,7 +31,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from summit_nav_common.jit import njit
+from summit_nav_common.native import library as _native
 
 from .grid import (FULLNESS_THRESHOLD, HITS, PATCH_CELLS, PATCH_SHIFT, SUM_X, SUM_Y, VISITS,
                    PatchGrid)
@@ -119,130 +120,37 @@ def map_tables(grids: Sequence[PatchGrid]) -> MapTables:
 
 
 # ------------------------------------------------------------ compiled core
-@njit(cache=True, nogil=True)
-def _beam_sums(store, py0, px0, rows, cols, offset, slots, i, pose, laser, bx, by, res,
-               sigma, lsigma, kernel_size, null_loglik):
-    """(score, log-likelihood) of particle i's map at base pose (3,) (module docstring)."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    lx = pose[0] + c * laser[0] - s * laser[1]
-    ly = pose[1] + s * laser[0] + c * laser[1]
-    lt = pose[2] + laser[2]
-    cl, sl = math.cos(lt), math.sin(lt)
-    score = 0.0
-    loglik = 0.0
-    for k in range(bx.shape[0]):
-        ex = lx + cl * bx[k] - sl * by[k]
-        ey = ly + sl * bx[k] + cl * by[k]
-        ix = int(math.floor(ex / res))
-        iy = int(math.floor(ey / res))
-        best = -1.0
-        for dy in range(-kernel_size, kernel_size + 1):
-            cy = iy + dy
-            ty = (cy >> PATCH_SHIFT) - py0[i]
-            if ty < 0 or ty >= rows[i]:
-                continue
-            for dx in range(-kernel_size, kernel_size + 1):
-                cx = ix + dx
-                tx = (cx >> PATCH_SHIFT) - px0[i]
-                if tx < 0 or tx >= cols[i]:
-                    continue
-                slot = slots[offset[i] + ty * cols[i] + tx]
-                if slot < 0:
-                    continue
-                r = cy & (PATCH_CELLS - 1)
-                q = cx & (PATCH_CELLS - 1)
-                hits = np.float64(store[slot, HITS, r, q])
-                visits = np.float64(store[slot, VISITS, r, q])
-                if visits > 0.0 and hits > FULLNESS_THRESHOLD * visits:
-                    mx = cx * res + np.float64(store[slot, SUM_X, r, q]) / hits - ex
-                    my = cy * res + np.float64(store[slot, SUM_Y, r, q]) / hits - ey
-                    d2 = mx * mx + my * my
-                    if best < 0.0 or d2 < best:
-                        best = d2
-        if best >= 0.0:
-            score += math.exp(-best / sigma)
-            loglik += -best / lsigma
-        else:
-            loglik += null_loglik
-    return score, loglik
-
-
-@njit(cache=True, nogil=True)
-def _optimize(store, py0, px0, rows, cols, offset, slots, init, laser, bx, by, res, sigma,
-              kernel_size, lstep, astep, iterations, moves, max_rounds):
-    """ScanMatcher::optimize for every particle i from init[i]: (poses (N, 3), best scores (N,))."""
-    n = init.shape[0]
-    out = init.copy()
-    best_scores = np.empty(n)
-    local = np.empty(3)
-    for i in range(n):
-        current = init[i].copy()
-        current_score = _beam_sums(store, py0, px0, rows, cols, offset, slots, i, current, laser, bx, by,
-                                   res, sigma, 1.0, kernel_size, 0.0)[0]
-        best_score = -1.0
-        ldelta, adelta = lstep, astep
-        refinement = 0
-        for _ in range(max_rounds):
-            if best_score >= current_score:
-                refinement += 1
-                ldelta *= 0.5
-                adelta *= 0.5
-            best_score = current_score
-            best_local = current.copy()
-            for m in range(moves.shape[0]):
-                local[0] = current[0] + moves[m, 0] * ldelta
-                local[1] = current[1] + moves[m, 1] * ldelta
-                local[2] = current[2] + moves[m, 2] * adelta
-                local_score = _beam_sums(store, py0, px0, rows, cols, offset, slots, i, local, laser, bx, by,
-                                         res, sigma, 1.0, kernel_size, 0.0)[0]
-                if local_score > current_score:
-                    current_score = local_score
-                    best_local[:] = local
-            current = best_local
-            if not (current_score > best_score or refinement < iterations):
-                break
-        current[2] = math.atan2(math.sin(current[2]), math.cos(current[2]))
-        out[i] = current
-        best_scores[i] = best_score
-    return out, best_scores
-
-
-@njit(cache=True, nogil=True)
-def _likelihoods(store, py0, px0, rows, cols, offset, slots, poses, laser, bx, by, res, sigma, lsigma,
-                 kernel_size, null_loglik):
-    n = poses.shape[0]
-    logliks = np.empty(n)
-    scores = np.empty(n)
-    for i in range(n):
-        scores[i], logliks[i] = _beam_sums(store, py0, px0, rows, cols, offset, slots, i, poses[i], laser,
-                                           bx, by, res, sigma, lsigma, kernel_size, null_loglik)
-    return logliks, scores
-
-
 def _args(t: MapTables):
-    return t.store, t.py0, t.px0, t.rows, t.cols, t.offset, t.slots
+    return t.store, PATCH_SHIFT, t.py0, t.px0, t.rows, t.cols, t.offset, t.slots
+
+
+def _beam_args(base_poses, laser_in_base, beams: Beams):
+    poses = np.ascontiguousarray(base_poses, np.float64)
+    bxy = beams.local_xy
+    return (poses, len(poses), np.ascontiguousarray(laser_in_base, np.float64), np.ascontiguousarray(bxy[:, 0]),
+            np.ascontiguousarray(bxy[:, 1]), len(bxy))
 
 
 def likelihood_and_score(tables: MapTables, base_poses: np.ndarray, laser_in_base: np.ndarray,
                          beams: Beams, sigma: float, lsigma: float, kernel_size: int):
     """(log-likelihoods (N,), scores (N,)) of particle i at base_poses[i] (N, 3) in its own
     map: gmapping's likelihoodAndScore."""
-    bxy = beams.local_xy
-    return _likelihoods(*_args(tables), np.ascontiguousarray(base_poses, float),
-                        np.asarray(laser_in_base, float), np.ascontiguousarray(bxy[:, 0]),
-                        np.ascontiguousarray(bxy[:, 1]), tables.resolution, float(sigma), float(lsigma),
-                        int(kernel_size), NULL_LIKELIHOOD / lsigma)
+    args = _beam_args(base_poses, laser_in_base, beams)
+    logliks, scores = np.empty(args[1]), np.empty(args[1])
+    _native().snc_likelihoods(*_args(tables), *args, tables.resolution, float(sigma), float(lsigma),
+                              int(kernel_size), NULL_LIKELIHOOD / lsigma, logliks, scores)
+    return logliks, scores
 
 
 def optimize(tables: MapTables, init_poses: np.ndarray, laser_in_base: np.ndarray, beams: Beams,
              sigma: float, kernel_size: int, lstep: float, astep: float, iterations: int):
     """gmapping's ScanMatcher::optimize of particle i from init_poses[i] (N, 3) in its own
     map. Returns (poses (N, 3), best scores (N,))."""
-    bxy = beams.local_xy
-    return _optimize(*_args(tables), np.ascontiguousarray(init_poses, float), np.asarray(laser_in_base, float),
-                     np.ascontiguousarray(bxy[:, 0]), np.ascontiguousarray(bxy[:, 1]), tables.resolution,
-                     float(sigma), int(kernel_size), float(lstep), float(astep), int(iterations), MOVES,
-                     MAX_CLIMB_STEPS)
+    args = _beam_args(init_poses, laser_in_base, beams)
+    poses, scores = np.empty((args[1], 3)), np.empty(args[1])
+    _native().snc_optimize(*_args(tables), *args, tables.resolution, float(sigma), int(kernel_size), float(lstep),
+                           float(astep), int(iterations), MOVES, len(MOVES), MAX_CLIMB_STEPS, poses, scores)
+    return poses, scores
 
 
 # ------------------------------------------------------------- reference
