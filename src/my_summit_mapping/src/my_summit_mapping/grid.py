@@ -40,6 +40,7 @@ writable, then every beam's Bresenham line is walked into them (`snc_trace_into`
 Cell (i, j) covers world x in [i*res, (i+1)*res), y in [j*res, (j+1)*res): the grid's
 origin is the world origin, indices may be negative. Arrays are indexed [row=y, col=x].
 """
+import itertools
 import math
 from typing import Dict, Optional, Set, Tuple
 
@@ -47,8 +48,12 @@ import numpy as np
 from summit_nav_common.line_cells import line_cells, line_cells_reference
 from summit_nav_common.native import library as _native
 
-PATCH_SHIFT = 6                  # log2 of the patch side [cells]
-PATCH_CELLS = 1 << PATCH_SHIFT   # patch side, 64 cells = 3.2 m at 0.05 m [cells]
+PATCH_SHIFT = 4                  # log2 of the patch side [cells]
+PATCH_CELLS = 1 << PATCH_SHIFT   # patch side, 16 cells = 0.8 m at 0.05 m [cells]: a particle copies
+                                 # only the 4 KB patches its scan's end points fall in (64-cell
+                                 # patches: 64 KB each, 1.7 x the Intel run's peak RSS)
+MAP_BLOCK_SHIFT = 6              # the published map grows in blocks of 64 cells (its extent is
+                                 # that of 64-cell patches, whatever PATCH_SHIFT) [log2 cells]
 HITS, VISITS, SUM_X, SUM_Y = range(4)  # layers: hit and visit counts, sums of the hit points'
                                  # offsets from the cell's lower-left corner [-, -, m, m]
 LAYERS = 4                       # layers of a patch / a traced window [-]
@@ -57,6 +62,9 @@ COUNT_LIMIT = 1 << 22            # float32 counts stay exact; a patch's layers a
 FULLNESS_THRESHOLD = 0.1         # gmapping's m_fullnessThreshold: occupied for matching if hits/visits > this [-]
 PATCH_BYTES = LAYERS * 4 * PATCH_CELLS * PATCH_CELLS  # float32 layers [bytes]
 POOL_SLOTS = 256                 # initial PatchPool capacity; it doubles when full [patches]
+FILTER_POOL_BYTES = 1 << 30      # address space the filter's pool takes at once [bytes]: pages
+                                 # never written cost no memory, and a pool that doubles copies
+                                 # itself, holding old and new at once (+64 MB at Intel's peak)
 UNKNOWN = -1                     # OccupancyGrid value of a never-seen cell
 OCCUPIED = 100                   # OccupancyGrid value of an occupied cell
 FREE = 0                         # OccupancyGrid value of a free cell
@@ -68,19 +76,26 @@ class PatchPool:
     """Reference-counted storage of patches: slot s is store[s], (LAYERS, P, P) float32.
 
     Grows by doubling (np.zeros: untouched slots cost no resident memory). Slots are
-    numbers, not views, so a grid stays valid when the store is reallocated.
+    numbers, not views, so a grid stays valid when the store is reallocated. Freed slots
+    are reused first (last freed, first reused), so the pages written stay those of the
+    most patches ever held at once.
     """
 
     def __init__(self, capacity: int = POOL_SLOTS):
         self.store = np.zeros((capacity, LAYERS, PATCH_CELLS, PATCH_CELLS), np.float32)
         self.refs = np.zeros(capacity, np.int64)
-        self._free = list(range(capacity - 1, -1, -1))
+        self._free = []          # released slots
+        self._next = 0           # slots from here on were never used
 
     def alloc(self, source: Optional[int] = None) -> int:
         """A new slot with one reference, zeroed or a copy of slot `source`."""
-        if not self._free:
-            self._grow()
-        slot = self._free.pop()
+        if self._free:
+            slot = self._free.pop()
+        else:
+            if self._next == len(self.refs):
+                self._grow()
+            slot = self._next
+            self._next += 1
         if source is None:
             self.store[slot] = 0.0
         else:
@@ -96,7 +111,7 @@ class PatchPool:
 
     def used(self) -> int:
         """Slots in use [patches]."""
-        return len(self.refs) - len(self._free)
+        return self._next - len(self._free)
 
     def _grow(self):
         old = len(self.refs)
@@ -104,7 +119,6 @@ class PatchPool:
         store[:old] = self.store
         self.store = store
         self.refs = np.concatenate((self.refs, np.zeros(old, np.int64)))
-        self._free.extend(range(2 * old - 1, old - 1, -1))
 
 
 class PatchGrid:
@@ -172,12 +186,23 @@ class PatchGrid:
         self._patches[key] = slot
         return slot
 
+    def _writable_table(self, keys: np.ndarray):
+        """Make the patches keys (M, 2) [py, px] writable (allocated or copied); (py0, px0,
+        cols, slots) of a table of those patches only (as patch_table's), enough for a
+        kernel that writes nowhere else."""
+        slots = np.array([self._writable_slot((py, px)) for py, px in keys.tolist()], np.int64)
+        (py0, px0), (py1, px1) = keys.min(axis=0), keys.max(axis=0)
+        rows, cols = int(py1 - py0 + 1), int(px1 - px0 + 1)
+        table = np.full(rows * cols, -1, np.int64)
+        table[(keys[:, 0] - py0) * cols + (keys[:, 1] - px0)] = slots
+        return int(py0), int(px0), cols, table
+
     def patch_table(self):
         """(py0, px0, rows, cols, slots (rows*cols,) int64): the pool slot of patch
         (py0 + r, px0 + c) at slots[r * cols + c], -1 where none is allocated."""
         if not self._patches:
             return 0, 0, 1, 1, np.full(1, -1, np.int64)
-        keys = np.array(list(self._patches.keys()), np.int64)
+        keys = self._key_array()
         slots = np.fromiter(self._patches.values(), np.int64, len(self._patches))
         (py0, px0), (py1, px1) = keys.min(axis=0), keys.max(axis=0)
         rows, cols = int(py1 - py0 + 1), int(px1 - px0 + 1)
@@ -185,18 +210,24 @@ class PatchGrid:
         table[(keys[:, 0] - py0) * cols + (keys[:, 1] - px0)] = slots
         return int(py0), int(px0), rows, cols, table
 
+    def _key_array(self) -> np.ndarray:
+        """The allocated patches' keys (M, 2) int64 [py, px], in the dict's order."""
+        n = len(self._patches)
+        return np.fromiter(itertools.chain.from_iterable(self._patches), np.int64, 2 * n).reshape(n, 2)
+
     # ------------------------------------------------------------ coordinates
     def world_to_cell(self, xy: np.ndarray) -> np.ndarray:
         """Integer cell indices (..., 2) [col, row] of world points (..., 2) [m]."""
         return np.floor(np.asarray(xy, float) / self.resolution).astype(np.int64)
 
     def bounds(self) -> Optional[Tuple[int, int, int, int]]:
-        """Allocated extent (ix0, iy0, ix1, iy1) in cells, half-open; None if empty."""
+        """Allocated extent (ix0, iy0, ix1, iy1) in cells, half-open, in whole blocks of
+        2^MAP_BLOCK_SHIFT cells; None if empty."""
         if not self._patches:
             return None
-        keys = np.array(list(self._patches.keys()))
-        return (int(keys[:, 1].min()) << PATCH_SHIFT, int(keys[:, 0].min()) << PATCH_SHIFT,
-                (int(keys[:, 1].max()) + 1) << PATCH_SHIFT, (int(keys[:, 0].max()) + 1) << PATCH_SHIFT)
+        blocks = self._key_array() >> (MAP_BLOCK_SHIFT - PATCH_SHIFT)
+        return (int(blocks[:, 1].min()) << MAP_BLOCK_SHIFT, int(blocks[:, 0].min()) << MAP_BLOCK_SHIFT,
+                (int(blocks[:, 1].max()) + 1) << MAP_BLOCK_SHIFT, (int(blocks[:, 0].max()) + 1) << MAP_BLOCK_SHIFT)
 
     # ---------------------------------------------------------------- windows
     def read_window(self, ix0: int, iy0: int, width: int, height: int) -> Tuple[np.ndarray, np.ndarray]:
@@ -259,10 +290,7 @@ class PatchGrid:
         res = self.resolution
         start = np.floor(laser_pose[:2] / res).astype(np.int64)
         end_cells = np.floor(ends / res).astype(np.int64)
-        keys = _touched_patches(start, end_cells)
-        for py, px in keys:
-            self._writable_slot((int(py), int(px)))
-        py0, px0, rows, cols, table = self.patch_table()
+        py0, px0, cols, table = self._writable_table(_touched_patches(start, end_cells))
         _native().snc_trace_into(self.pool.store, PATCH_SHIFT, table, py0, px0, cols, start, end_cells,
                                  np.ascontiguousarray(ends), is_hit.view(np.uint8), len(end_cells), res,
                                  float(COUNT_LIMIT))
@@ -283,9 +311,7 @@ class PatchGrid:
         a = laser_pose[2] + np.asarray(angles, float)[used]
         ends = np.column_stack((laser_pose[0] + r[used] * np.cos(a), laser_pose[1] + r[used] * np.sin(a)))
         cells = np.floor(ends / self.resolution).astype(np.int64)
-        for py, px in np.unique(cells[:, ::-1] >> PATCH_SHIFT, axis=0):
-            self._writable_slot((int(py), int(px)))
-        py0, px0, rows, cols, table = self.patch_table()
+        py0, px0, cols, table = self._writable_table(_unique_keys(cells >> PATCH_SHIFT))
         _native().snc_add_hits_into(self.pool.store, PATCH_SHIFT, table, py0, px0, cols, cells, np.ascontiguousarray(ends),
                                     len(cells), self.resolution, float(COUNT_LIMIT))
 
@@ -343,6 +369,14 @@ class PatchGrid:
 
 
 # ------------------------------------------------------------------ helpers
+def _unique_keys(patch_xy: np.ndarray) -> np.ndarray:
+    """The distinct rows of patch_xy (M, 2) [px, py] as keys (K, 2) [py, px] (one 1-D
+    np.unique of packed 64-bit keys: several times faster than np.unique(axis=0))."""
+    packed = np.unique((patch_xy[:, 1] << 32) | (patch_xy[:, 0] & 0xFFFFFFFF))
+    px = packed & 0xFFFFFFFF
+    return np.column_stack((packed >> 32, np.where(px >= 1 << 31, px - (1 << 32), px)))
+
+
 def _patch_slices(ix0: int, iy0: int, width: int, height: int):
     """Yield (patch key, (win_row, win_col, patch_row, patch_col, h, w)) covering a window."""
     py_first, py_last = iy0 >> PATCH_SHIFT, (iy0 + height - 1) >> PATCH_SHIFT

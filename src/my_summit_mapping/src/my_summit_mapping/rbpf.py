@@ -28,7 +28,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from . import motion_model, scan_matcher
-from .grid import PATCH_BYTES, PatchGrid, PatchPool
+from .grid import FILTER_POOL_BYTES, PATCH_BYTES, PatchGrid, PatchPool
 from .slam_config import SlamConfig
 
 RANGE_MAX_MARGIN = 0.01  # slam_gmapping's default maxRange = scan range_max - this [m]
@@ -159,7 +159,7 @@ class RbpfSlam:
     def _initialize(self, odom, r, a, laser, max_range, timestamp):
         """First scan: all particles at the odometry pose, sharing the scan's map."""
         self.poses[:] = odom
-        first = PatchGrid(self.config.delta, PatchPool())
+        first = PatchGrid(self.config.delta, PatchPool(FILTER_POOL_BYTES // PATCH_BYTES))
         lp = scan_matcher.laser_poses(odom[None, :], laser)[0]
         first.add_hits(lp, r, a, self.config.maxUrange, max_range)
         self.maps = [first] + [first.copy() for _ in range(self.config.particles - 1)]
