@@ -189,9 +189,29 @@ def test_measurements_fused_in_stamp_order_and_timeout_predicts():
     r.update(0.2)
     assert r.ekf.time == 0.2 and r.counts["/imu"]["fused"] == 1 and r.counts["/odom"]["fused"] == 1
     x = r.ekf.x.copy()
-    r.update(1.0)    # sensor_timeout 0.1 s: predicted
-    assert r.ekf.time == 1.0
-    assert_allclose(r.ekf.x, predict_state(x, 0.8), atol=1e-12)
+    r.update(1.0)    # sensor_timeout 0.1 s: the output predicted, the filter kept
+    out_x, _, out_t = r.state()
+    assert out_t == 1.0 and r.ekf.time == 0.2
+    assert_allclose(out_x, predict_state(x, 0.8), atol=1e-12)
+    assert_allclose(r.ekf.x, x)
+
+
+def test_late_measurements_after_timeout_fused_in_order():
+    """The filter output predicted through a gap with a stale turn rate; the gap's
+    measurements, arriving late, are then fused in stamp order from the filter's last
+    measurement, so the turn they saw is in the heading (a busy machine delayed them)."""
+    r, s = runner(sensor_timeout=0.1)
+    r.add("/odom", 0.0, [twist_msg(s, 0.0, vyaw=0.0)], now=0.0)
+    r.update(0.0)
+    r.update(1.0)          # nothing for 1 s: output predicted with vyaw 0
+    assert r.state()[0][YAW] == pytest.approx(0.0, abs=1e-9)
+    for k in range(1, 11):  # the gap's messages: turning at 1 rad/s
+        t = 0.1 * k
+        r.add("/odom", t, [twist_msg(s, t, vyaw=1.0, var=1e-6)], now=1.0)
+    r.update(1.0)
+    x, _, t = r.state()
+    assert t == pytest.approx(1.0)
+    assert x[YAW] == pytest.approx(0.9, abs=0.06)   # ~ the turn from 0.1 s to 1 s
 
 
 def test_silent_topic_named_once():

@@ -244,6 +244,15 @@ class Ekf:
             self.predict(dt)
             self.time = stamp
 
+    def predicted(self, stamp):
+        """(x, P, stamp): the state predicted to stamp [s], the filter left as it is."""
+        keep = (self.x, self.P, self.time)
+        try:
+            self.predict_to(stamp)
+            return self.x, self.P, self.time
+        finally:
+            self.x, self.P, self.time = keep
+
     def process(self, m: Measurement) -> Outcome:
         """Predicts to the measurement's stamp and corrects with it; the first one
         initializes the filter. A stamp older than the state's time is corrected without

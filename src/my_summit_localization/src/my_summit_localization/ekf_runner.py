@@ -11,6 +11,9 @@ it predicts to now. What the node must say is returned as text, never raised:
   - a message stamped more than FUTURE_LIMIT ahead of now is dropped; one a little ahead
     waits in the queue until its time;
   - a rejected measurement (Mahalanobis threshold) is counted per topic;
+  - with no measurement for sensor_timeout, the output is the state predicted to now
+    (robot_localization predicts its filter itself; here the filter stays at its last
+    measurement, so measurements that arrive late are still fused in stamp order);
   - a configured topic that has not published for `silent_after` [s] since the start is
     named once (the filter runs on the others).
 """
@@ -43,7 +46,8 @@ class EkfRunner:
         self.silent_after = silent_after
         self.start = None                # [s] time of the first update
         self.warned_silent = set()
-        self.last_update = None          # [s] ROS time the filter last moved (measurement or timeout)
+        self.last_update = None          # [s] ROS time of the last measurement fused
+        self.output = None               # (x, P, time) predicted past the filter after sensor_timeout
 
     def _count(self, topic, key):
         self.counts.setdefault(topic, {"received": 0, "fused": 0, "rejected": 0, "dropped": 0})[key] += 1
@@ -93,11 +97,24 @@ class EkfRunner:
                 rejected.append((m.source, outcome))
         if fused_any:
             self.last_update = now
+            self.output = None
         elif self.ekf.initialized and self.last_update is not None \
                 and now - self.last_update >= self.config.sensor_timeout:
-            self.ekf.predict_to(now)
-            self.last_update = now
+            # Output predicted to now, the filter itself left at its last measurement: the
+            # measurements of that gap may still be on their way (a busy machine delays
+            # callbacks), and fused later they are predicted to in order instead of being
+            # applied to a state already moved on with a stale turn rate.
+            self.output = self.ekf.predicted(now)
         return rejected
+
+    def state(self):
+        """(x, P, time) to publish: the filter's, or its prediction after sensor_timeout
+        without measurements; None before the first measurement."""
+        if not self.ekf.initialized:
+            return None
+        if self.output is not None and self.output[2] > self.ekf.time:
+            return self.output
+        return self.ekf.x, self.ekf.P, self.ekf.time
 
     def silent_topics(self, now):
         """Configured topics with no message for silent_after [s] since the start that have
@@ -122,6 +139,7 @@ class EkfRunner:
         p[:6, :6] = np.asarray(pose_cov6, dtype=np.float64).reshape(6, 6)
         np.fill_diagonal(p, np.maximum(np.abs(np.diagonal(p)), MIN_VARIANCE))
         self.ekf.reset(x, p, stamp)
+        self.output = None
         self.queue.clear()
         for s in sensors:
             s.reset()
