@@ -108,3 +108,16 @@ def test_nothing_to_match_gives_a_huge_covariance():
     r = cm.ScanMatcher(SEARCH, SETTINGS, 12.0).match(pts, np.zeros((0, 2)), np.zeros(3))
     assert r.response == 0.0
     assert r.covariance[0, 0] == cm.MAX_VARIANCE
+
+
+def test_window_moves_onto_a_best_pose_at_its_edge():
+    """A prediction 0.22 m off lies outside the +-0.15 m window: the fixed window (open_karto)
+    stops at its edge, the re-centred one reaches the true pose."""
+    true = np.array([0.3, -0.2, 0.1])
+    ref = np.vstack([_to_map(p, _points(p)) for p in ([0.0, 0.0, 0.0], [0.5, 0.3, 0.4])])
+    pts = _points(true)
+    guess = true + np.array([0.22, 0.0, 0.0])
+    fixed = cm.ScanMatcher(SEARCH, SETTINGS, 12.0).match(pts, ref, guess)
+    moving = cm.ScanMatcher(SEARCH, cm.MatcherSettings(max_recenters=2), 12.0).match(pts, ref, guess)
+    assert abs(fixed.pose[0] - true[0]) > 0.05
+    assert_allclose(moving.pose[:2], true[:2], atol=0.015)

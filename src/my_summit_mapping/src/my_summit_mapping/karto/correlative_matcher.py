@@ -73,6 +73,7 @@ class MatcherSettings:
     minimum_distance_penalty: float = 0.5                   # [-]
     minimum_angle_penalty: float = 0.9                      # [-]
     use_response_expansion: bool = False  # widen the heading window when nothing matched
+    max_recenters: int = 0     # moves of the x-y window onto a best pose found at its edge (ours) [-]
 
 
 @dataclass
@@ -323,6 +324,28 @@ class ScanMatcher:
                                 self.range_threshold + 0.5 * s.dimension + s.resolution,
                                 self.half_cells + 1)
 
+    def _recenter(self, grid, points, center, result, pen) -> MatchResult:
+        """While the coarse best lies on the x-y window's edge (the optimum may lie beyond)
+        search a window centred on it, up to settings.max_recenters times, keeping the
+        penalty centred on the prediction; stop when the response no longer grows."""
+        s, st = self.search, self.settings
+        step = 2
+        edge = (self.half_cells - step) * s.resolution
+        search_center = center
+        offsets = _offsets(self.half_cells, step)
+        for _ in range(st.max_recenters):
+            if np.max(np.abs(result.pose[:2] - search_center[:2])) < edge - 1e-9:
+                break
+            search_center = result.pose
+            angles = _angles(search_center[2], st.coarse_search_angle_offset, st.coarse_angle_resolution)
+            resp = correlate(grid, points, search_center, offsets, angles)
+            moved = estimate(resp, offsets, angles, search_center, s.resolution, step * s.resolution,
+                             st.coarse_angle_resolution, pen, st)
+            if moved.response <= result.response:
+                break
+            result = moved
+        return result
+
     def match(self, points: np.ndarray, reference_points: np.ndarray, center: np.ndarray,
               penalize: bool = True, refine: bool = True, grid: Optional[LookupGrid] = None,
               min_response: float = 0.0) -> MatchResult:
@@ -347,6 +370,7 @@ class ScanMatcher:
             if result.response > RESPONSE_TIE:
                 break
             angle_offset += st.coarse_search_angle_offset   # open_karto's response expansion
+        result = self._recenter(grid, points, center, result, pen)
         if not refine or result.response <= RESPONSE_TIE:
             return result
         fine_center = result.pose

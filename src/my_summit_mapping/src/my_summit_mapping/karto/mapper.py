@@ -1,5 +1,10 @@
 """KartoMapper: graph SLAM as open_karto's Mapper runs it, with SPA-style optimization.
 
+API beyond the one agreed with the node (issue 42), all additions: KartoParams has
+`range_threshold` (open_karto's laser RangeThreshold, 12 m); `take_log()` returns and
+clears the notes on rejected loop closures (for the node to log); `node_stamps()`;
+`stats` also counts `scans_received` and `optimizations`.
+
 Reference: open_karto (SRI International; Konolige et al. 2010, "Efficient Sparse Pose
 Adjustment for 2D Mapping") as slam_karto drives it; Olson 2009, "Real-Time Correlative
 Scan Matching". The parameters are slam_karto's ROS parameters with open_karto's
@@ -13,7 +18,9 @@ For each scan (add_scan):
 2. Predict: the last node's correction applied to the new odometry pose.
 3. Sequential match against the running buffer (the last `scan_buffer_size` nodes within
    `scan_buffer_maximum_scan_distance`), penalized, coarse then fine; the node takes the
-   matched pose.
+   matched pose. Where the coarse best lies on the window's edge, the window moves onto
+   it (`correlation_search_max_recenters`, ours): with scans a metre apart the
+   odometry's error can exceed open_karto's +-0.15 m window.
 4. Edges: to the previous node ("sequential", the match's covariance; "odometry" when
    scan matching is off or the match found nothing), to the closest node of the running
    buffer, and to each near chain (nodes tied to this one through the graph within
@@ -49,8 +56,6 @@ QUERY_RANGE_MARGIN = 1.0  # a scan matches only its hits this much closer than t
                           # while its hits up to the threshold serve as reference: otherwise the
                           # far edge of what the reference saw pulls every match backwards
                           # (its farthest hits score only where the reference reaches) [m]
-OPTIMIZE_ON_NEAR_CHAINS = False # optimize when a near chain is linked (ours; open_karto waits
-                                # for the next loop closure)
 RESUME_COVARIANCE = (1.0, 1.0, math.radians(30.0) ** 2)  # a new session's first node where its
                                    # scan matched nothing: start_at's pose, loosely [m^2, m^2, rad^2]
 
@@ -111,6 +116,8 @@ class KartoParams:
     use_response_expansion: bool = _p(False, "widen the heading window when nothing matched")
     range_threshold: float = _p(12.0, "readings beyond this are not matched, and free the map up to it "
                                       "(open_karto's laser RangeThreshold) [m]", 0.0)
+    correlation_search_max_recenters: int = _p(2, "times the sequential search window moves onto a best "
+                                                  "pose found at its edge (ours; 0: open_karto's fixed window) [-]", 0)
     loop_closure_max_correction: float = _p(3.0, "a loop closure that moves a node farther is "
                                                  "rejected (ours) [m]", 0.0)
 
@@ -193,7 +200,9 @@ class KartoMapper:
         self._sequential = cm.ScanMatcher(cm.SearchSpace(p.correlation_search_space_dimension,
                                                          p.correlation_search_space_resolution,
                                                          p.correlation_search_space_smear_deviation),
-                                          settings, p.range_threshold)
+                                          dataclasses.replace(settings,
+                                                              max_recenters=p.correlation_search_max_recenters),
+                                          p.range_threshold)
         self._loop = cm.ScanMatcher(cm.SearchSpace(p.loop_search_space_dimension, p.loop_search_space_resolution,
                                                    p.loop_search_space_smear_deviation), settings, p.range_threshold)
         self.graph = PoseGraph()
@@ -202,7 +211,8 @@ class KartoMapper:
         self._last_odom: Optional[np.ndarray] = None
         self._anchor: Optional[Tuple[np.ndarray, np.ndarray]] = None   # (map pose, odom pose) from start_at
         self.log: List[str] = []       # rejected closures and other notes, newest last
-        self.closure_chi2: List[Tuple[float, float, int]] = []  # (chi2 before, after, edges) per closure tried
+        self.closure_chi2: List[Tuple[float, float, int]] = []  # (chi2 without, with, edges) of each
+                                       # closure tried: what check_closure judged, for analysis
         self.stats = dict(nodes=0, loop_closures=0, rejected_loop_closures=0, scans_processed=0,
                           scans_received=0, optimizations=0)
 
@@ -348,7 +358,6 @@ class KartoMapper:
         def close(k):
             return within[k]
 
-        linked = False
         for k in sorted(near - done):
             if k in done:
                 continue
@@ -371,11 +380,6 @@ class KartoMapper:
             if m.response >= p.link_match_minimum_response_fine - cm.RESPONSE_TIE:
                 c = lc.closest_node(g, chain, m.pose)
                 g.add_edge(c, node.id, "sequential", between(g.nodes[c].pose, m.pose), covariance=m.covariance)
-                linked = True
-        if linked and OPTIMIZE_ON_NEAR_CHAINS:
-            # a near chain is a small loop closed: use it now, not at the next loop closure
-            g.set_poses(optimize_graph(g).poses)
-            self.stats["optimizations"] += 1
 
     def _add_running(self, nid: int) -> None:
         p = self.params
@@ -460,6 +464,11 @@ class KartoMapper:
             return self.map_to_odom()
         t = compose(np.array(self.map_to_odom()), self._last_odom)
         return (float(t[0]), float(t[1]), float(t[2]))
+
+    def take_log(self) -> List[str]:
+        """Notes since the last call (rejected loop closures, with why), oldest first."""
+        out, self.log = self.log, []
+        return out
 
     def node_poses(self) -> np.ndarray:
         """Corrected node poses (N, 3) [m, m, rad]."""
