@@ -69,6 +69,11 @@ beside each time. Sections:
               adaptive parameters off and on at 2x (lap time, least clearance to a wall)
   multi_robot the multi-robot lesson (both robots' goals, amcl and fake_localization) and
               the number of robots (amcl + move_base each) run at >= 1x real time
+  memory      peak RSS per node on the benchmark's own runs (map_server, amcl, move_base: stack_cpu's
+              first MEMORY_GOALS goals; slam_gmapping: slam_bag's Intel bag, seed 1) beside the real
+              C++ node's (--real-stack-json: real_stack_rss.py's JSON of the real stack on the same
+              goals; the stored slam_bag_peer record), and the stack's startup (launch to move_base
+              accepting a goal, median of STARTUP_RUNS)
   e2e         (only with --only e2e) the end-to-end rostest once per seed 1..10 at 4x real time,
               with the scans each node skipped because it fell behind
 
@@ -77,6 +82,7 @@ beside each time. Sections:
     make bench BENCH_ARGS="--only slam_carmen --carmen-logs intel"
     make bench BENCH_ARGS="--only slam_bag --carmen-logs intel --bag-rate 1"
     make bench BENCH_ARGS="--only explore --explore-worlds builtin"
+    make bench BENCH_ARGS="--only memory --real-stack-json REAL_STACK.json"
     make bench-page                 re-render the page from docs/bench.json
 """
 import argparse
@@ -487,6 +493,81 @@ def bench_multi_robot(runs):
 E2E_SPEED = 4.0  # the course project end to end faster than real time (issue 24's figure)
 
 
+MEMORY_GOALS = 2        # the stack's run for peak RSS: the first goals of stack_cpu's seeded ten
+STARTUP_RUNS = 3        # launches timed for the stack's startup (median)
+STARTUP_GOAL = (0.5, 0.0, 0.0)   # [m, m, rad] in the map frame: just ahead of the start pose
+
+
+def bench_startup_once():
+    """Wall seconds from `roslaunch move_base.launch sim:=true` (its own master) to move_base
+    accepting a goal (the goal's status ACTIVE or later); one launch, in a child process
+    (rospy binds a process to one master)."""
+    import rospy
+    from actionlib_msgs.msg import GoalStatus
+    from move_base_msgs.msg import MoveBaseAction
+    from summit_nav_common.ros.action_client import SimpleActionClient
+    from summit_nav_common.testing import move_base_client as mt
+    from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for, wait_for_sim_time_param
+
+    t0 = time.monotonic()
+    with RoslaunchSession(["my_summit_path_planning", "move_base.launch", "sim:=true"],
+                          log=os.path.join(OUT, "bench_memory_startup.log")) as session:
+        wait_for_sim_time_param(session)
+        rospy.init_node("bench_startup", anonymous=True, disable_signals=True)
+        client = SimpleActionClient("move_base", MoveBaseAction)
+        wait_for(lambda: client.wait_for_server(rospy.Duration(0.1)), 300, "move_base's action server", session)
+        accepted = (GoalStatus.ACTIVE, GoalStatus.SUCCEEDED, GoalStatus.PREEMPTED, GoalStatus.ABORTED)
+        client.send_goal(mt.make_goal(*STARTUP_GOAL))
+        wait_for(lambda: client.get_state() in accepted, 300, "move_base accepting a goal", session, poll=0.01)
+        startup_s = time.monotonic() - t0
+        client.cancel_all_goals()
+    return {"startup_s": startup_s}
+
+
+def bench_memory(real_stack_json=None):
+    """Peak RSS (VmHWM) per node on the benchmark's own runs: map_server, amcl, move_base on
+    stack_cpu's run (bench_stack_cpu.py, its first MEMORY_GOALS goals), slam_gmapping on
+    slam_bag's Intel bag (seed 1, at BAG_RATE); the stack's startup (STARTUP_RUNS launches,
+    launch to move_base accepting a goal). The real nodes' figures: map_server, amcl and
+    move_base from real_stack_json (written by the command it names, on the same run with
+    the real C++ nodes), slam_gmapping from the stored slam_bag_peer record (the real
+    gmapping on the same bag)."""
+    stack = _run_script("my_summit_path_planning", "bench_stack_cpu.py", ["--runs", "1", "--goals", str(MEMORY_GOALS)],
+                        "bench_memory_stack.json")
+    slam = _run_script("my_summit_mapping", "bench_slam_bag.py",
+                       [os.path.join(DATA, "carmen", CARMEN_LOGS["intel"]), "--rate", str(BAG_RATE), "--seeds", "1",
+                        "--out", os.path.join(OUT, "memory_slam_bag_intel")], "bench_memory_slam.json")
+    startup = [_child_json("memory_startup_child") for _ in range(STARTUP_RUNS)]
+    ours = {n: stack["median"]["peak_rss_mb"][n] for n in ("map_server", "amcl", "move_base")}
+    ours["slam_gmapping"] = slam["median"]["peak_rss_mb"]
+    real, sources = {}, {}
+    if real_stack_json:
+        with open(real_stack_json) as f:
+            doc = json.load(f)
+        for n in ("map_server", "amcl", "move_base"):
+            real[n] = doc["median"]["peak_rss_mb"][n]
+            sources[n] = (f"the C++ node on the same {doc['goals']} goals, median of {len(doc['runs'])} runs "
+                          f"(real_stack_rss.py --goals {doc['goals']} --runs {len(doc['runs'])} --json)")
+    peer = bench_report.load_store()["sections"].get("slam_bag_peer")
+    if peer and "intel" in peer["result"]["logs"]:
+        real["slam_gmapping"] = peer["result"]["logs"]["intel"]["median"]["peak_rss_mb"]
+        sources["slam_gmapping"] = (f"the C++ node on the same bag, median of its seeds: slam_bag_peer at "
+                                    f"{peer['commit']}, {peer['date'][:10]}")
+    return {"real_stack_json": real_stack_json, "goals": MEMORY_GOALS, "bag_rate": BAG_RATE, "peak_rss_mb": ours, "real_peak_rss_mb": real,
+            "real_sources": sources, "startup_s": statistics.median(r["startup_s"] for r in startup),
+            "startup_runs": [round(r["startup_s"], 1) for r in startup],
+            "stack_reached": stack["reached_min"], "slam_updates": slam["median"].get("updates")}
+
+
+def _child_json(only):
+    """This script run with --only `only` in a child process; the JSON line it prints."""
+    r = subprocess.run([sys.executable, __file__, "--only", only], stdout=subprocess.PIPE, text=True, timeout=900)
+    line = [l for l in r.stdout.splitlines() if l.startswith("{")]
+    if r.returncode != 0 or not line:
+        raise RuntimeError(f"{only} failed:\n{r.stdout[-2000:]}")
+    return json.loads(line[-1])
+
+
 def bench_e2e():
     out = subprocess.run([sys.executable, os.path.join(WS, "tools", "e2e_seeds.py"), "--speed", str(E2E_SPEED)]
                          + [str(s) for s in range(1, 11)], stdout=subprocess.PIPE, text=True).stdout
@@ -566,6 +647,9 @@ def main():
                          "package.xml or checkout does not say")
     ap.add_argument("--explore-worlds", nargs="+", choices=sorted(EXPLORE_RUNS),
                     help="explore: only these worlds (default all; willow takes about 40 min)")
+    ap.add_argument("--real-stack-json", metavar="JSON",
+                    help="memory: the real map_server + amcl + move_base's peak RSS on stack_cpu's run "
+                         "(real_stack_rss.py --json of the peers' workspace)")
     ap.add_argument("--profile", metavar="PREFIX", help=argparse.SUPPRESS)  # sim_rtf's profiled child
     ap.add_argument("--render", action="store_true",
                     help="only re-render docs/benchmarks.md and the README's table from docs/bench.json")
@@ -574,6 +658,9 @@ def main():
         bench_report.render_files(bench_report.load_store())
         print(f"rendered {os.path.relpath(bench_report.PAGE, WS)} and the README's table from "
               f"{os.path.relpath(bench_report.STORE, WS)}")
+        return 0
+    if args.only == ["memory_startup_child"]:
+        print(json.dumps(bench_startup_once()))
         return 0
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once(profile=args.profile)))
@@ -622,6 +709,7 @@ def main():
         "race_track": bench_race_track,
         "multi_robot": lambda: bench_multi_robot(min(args.runs, 3)),
         "e2e": bench_e2e,
+        "memory": lambda: bench_memory(args.real_stack_json),
     }
     for section, (option, _) in PEER_SECTIONS.items():
         if section in only:
