@@ -6,8 +6,10 @@ import pytest
 
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, Footprint, LayeredCostmap
-from my_summit_path_planning.dwa import (ESCAPE_TOL, DWAConfig, DWAPlanner, LatencyMeter, OscillationFlags,
-                                         dynamic_window, sample_velocities, simulate)
+from my_summit_path_planning.clearance import ESCAPE_TOL
+from my_summit_path_planning.dwa import DWAConfig, DWAPlanner, dynamic_window, sample_velocities, simulate
+from my_summit_path_planning.latency import LatencyMeter
+from my_summit_path_planning.oscillation import OscillationFlags
 
 CFG = dict(max_vel_x=1.5, min_vel_x=0.0, max_vel_y=0.0, min_vel_y=0.0, max_vel_trans=1.5,
            min_vel_trans=0.1, max_vel_theta=3.0, min_vel_theta=0.3, acc_lim_x=2.5,
@@ -331,7 +333,8 @@ def test_goal_rotation_is_time_optimal_without_overshoot(err0, period):
     held that long turns 0.26 rad, more than the whole tolerance window (0.12): the robot
     turned back and forth across the goal heading until move_base's 10 s oscillation
     timeout. The command is now planned for the period it stays in force."""
-    from my_summit_path_planning.dwa import rotation_speed, wrap_angle
+    from my_summit_path_planning.goal_rotation import rotation_speed
+    from summit_nav_common.geometry import wrap_angle
     acc, vmax, vmin, tol, step = 5.0, 3.0, 0.3, 0.06, 0.005
     yaw, w, t, passed = 0.0, 0.0, 0.0, False
     while t < 5.0:
@@ -850,7 +853,7 @@ def test_escape_mode_moves_a_robot_whose_clearance_is_below_the_floor(footprint)
     fresh ESCAPE_TOL after each such reset it crept ever deeper (2.4 cm in a replay of a
     willow-full wedge)."""
     from my_summit_path_planning.costmap import Footprint
-    from my_summit_path_planning.dwa import ESCAPE_SLACK
+    from my_summit_path_planning.clearance import ESCAPE_SLACK
     from my_summit_path_planning.navfn import resample_path
     padded = Footprint.from_params(footprint.polygon.tolist(), padding=0.02)   # explore.launch's
     res = 0.05

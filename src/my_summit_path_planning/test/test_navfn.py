@@ -244,7 +244,7 @@ def start_region_reference(forbidden, lethal, sc):
     on the same depths: the oracle."""
     import collections
     import cv2
-    from my_summit_path_planning.navfn import START_REGION_SLACK
+    from my_summit_path_planning.global_plan import START_REGION_SLACK
     h, w = forbidden.shape
     depth = cv2.distanceTransform(forbidden.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     d0 = float(depth[sc[1], sc[0]])

@@ -10,7 +10,7 @@ import yaml
 
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, Footprint, LayeredCostmap
-from my_summit_path_planning.dwa import ClearancePolicy
+from my_summit_path_planning.clearance import ClearancePolicy
 from my_summit_path_planning.layers import scan_to_observation
 from my_summit_path_planning.params import ParamError, build_costmap, load_move_base_params
 from my_summit_path_planning.nav_core import PluginContext

@@ -18,6 +18,7 @@ import numpy.testing as npt
 import pytest
 
 from my_summit_path_planning import cost_values as cv
+from my_summit_path_planning import footprint_cost as fc
 from my_summit_path_planning import trajectory_planner as tp
 from my_summit_path_planning.costmap import Costmap2D, Footprint
 from my_summit_path_planning.params import ParamError
@@ -66,10 +67,10 @@ def test_bresenham_equals_the_iterator():
     rng = np.random.default_rng(0)
     ends = rng.integers(-20, 20, size=(300, 4))
     ends[:5] = [[0, 0, 0, 0], [3, 3, 3, 3], [0, 0, 7, 0], [0, 0, 0, -7], [0, 0, 5, 5]]
-    xs, ys, valid = tp.bresenham(*ends.T)
+    xs, ys, valid = fc.bresenham(*ends.T)
     for k, (x0, y0, x1, y1) in enumerate(ends):
         got = list(zip(xs[k][valid[k]].tolist(), ys[k][valid[k]].tolist()))
-        assert got == tp.line_cells_reference(x0, y0, x1, y1)
+        assert got == fc.line_cells_reference(x0, y0, x1, y1)
         assert got[0] == (x0, y0) and got[-1] == (x1, y1)
 
 
@@ -78,10 +79,10 @@ def test_footprint_costs_equal_reference(fp, seed):
     m = _cluttered(seed)
     rng = np.random.default_rng(10 + seed)
     poses = np.column_stack([rng.uniform(-3.8, 3.8, 400), rng.uniform(-3.8, 3.8, 400), rng.uniform(-4, 4, 400)])
-    fast = tp.footprint_costs(m, fp.polygon, poses[:, 0], poses[:, 1], poses[:, 2])
-    ref = [tp.footprint_cost_reference(m, fp.polygon, *p) for p in poses]
+    fast = fc.footprint_costs(m, fp.polygon, poses[:, 0], poses[:, 1], poses[:, 2])
+    ref = [fc.footprint_cost_reference(m, fp.polygon, *p) for p in poses]
     npt.assert_array_equal(fast, ref)
-    assert {tp.OFF_MAP, tp.COLLIDES} <= set(fast.tolist())  # both failures occur
+    assert {fc.OFF_MAP, fc.COLLIDES} <= set(fast.tolist())  # both failures occur
     assert (fast >= 0).sum() > 20
 
 

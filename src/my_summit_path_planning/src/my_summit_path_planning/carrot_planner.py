@@ -23,9 +23,9 @@ import math
 
 import numpy as np
 
-from .navfn import PlanResult
+from .global_plan import PlanResult
 from .params import ParamError
-from .trajectory_planner import footprint_cost_reference, footprint_costs
+from .footprint_cost import footprint_cost_reference, footprint_costs
 from summit_nav_common.geometry import wrap_angle
 
 

@@ -70,16 +70,20 @@ their units there; scaling_speed, max_scaling_factor and use_dwa are accepted an
 used (this planner always samples the dynamic window; move_base says so once, with the
 values: plugins._dwa_planner).
 """
-import collections
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from summit_nav_common.geometry import transform_points, wrap_angle
-from summit_nav_common.grid_kernels import chamfer_labels, distance_transform, remap_bilinear
+from summit_nav_common.geometry import wrap_angle
+from summit_nav_common.grid_kernels import chamfer_labels
+
+from .clearance import ClearancePolicy, _nearest_blocked, footprint_checks, footprint_clearance, obstacle_distance
+from .goal_rotation import rotation_speed
+from .local_plan import DWAResult, HeldPlan
+from .oscillation import OscillationFlags
 
 EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
 MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
@@ -87,24 +91,9 @@ NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_po
 PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
 MAX_LATENCY = 1.0          # [s] cap on the control latency braking plans for
 ARRIVAL_TIME_WEIGHT = 0.01  # [1/s] x goal_distance_bias: prefer reaching the goal sooner
-ESCAPE_SLACK = 1e-3        # [m] clearance a move may lose where it may lose none (see ClearancePolicy)
-# [m] clearance loss tolerated in escape mode: the clearance measured along a motion
-# parallel to a wall of laser-marked cells (ragged by a cell here and there, laser noise
-# 1 cm) wobbles by a few millimetres. A fifth of a cell: the marked cells reach 0-5 cm
-# past the surface that was hit, and the clearance keeps half a cell of margin besides.
-ESCAPE_TOL = 0.01
 ESCAPE_VEL_X = 0.2         # [m/s] backing-up speed allowed in escape mode even when min_vel_x >= 0
 NO_OBSTACLE_DIST = 1.0e6   # [m] distance field value when the costmap has no blocked cell
-ESCAPE_GAIN = 0.01         # [m] clearance a backing-up trajectory must regain in escape mode
 ALONG_PLAN_GAIN = 0.05     # [m] ... unless it gets this much nearer the goal along the plan
-OUTSIDE_DIST = -1.0e6      # [m] distance field value off the costmap (counts as a collision)
-# The axis circles stick out ~0.25 m past a rectangle's ends: poses whose axis-circle
-# clearance is below this are checked again with the footprint's finer grid circles.
-FINE_CHECK_BELOW = 0.3     # [m]
-FINE_MARGIN_CELLS = 1.0    # [cells] margin of the grid circles (the axis circles have half a cell)
-# [cells] how much farther than half a cell a blocked cell's square reaches (its corner,
-# diagonally): below this clearance the axis circles may miss a footprint corner in a cell.
-CORNER_SLACK_CELLS = math.sqrt(0.5) - 0.5
 
 
 APPROACH_DECEL = 0.75     # x acc_lim_x: the deceleration the approach to the goal is planned with
@@ -163,27 +152,6 @@ class DWAConfig:
     def sim_period(self):
         """[s] one control period."""
         return 1.0 / self.controller_frequency
-
-
-@dataclass
-class DWAResult:
-    """What compute_velocity returns.
-
-    cmd: (vx [m/s], vy [m/s], vth [rad/s]); ok: False when no valid command exists
-    (reason says why; cmd is then zero); goal_reached; trajectory: (T, 3) poses of the
-    chosen sample (x, y, yaw) or None; n_valid / n_samples; cost of the chosen sample;
-    mode: 'dwa', 'escape', 'stop', 'rotate' or 'goal'.
-    """
-
-    cmd: tuple = (0.0, 0.0, 0.0)
-    ok: bool = True
-    reason: str = ""
-    goal_reached: bool = False
-    trajectory: np.ndarray = field(default=None, repr=False)
-    n_valid: int = 0
-    n_samples: int = 0
-    cost: float = 0.0
-    mode: str = "dwa"
 
 
 # -- 1. dynamic window ----------------------------------------------------------------
@@ -626,331 +594,7 @@ def no_valid_reason(verdict, escape_why, dist_obs, costmap, pose):
             + _nearest_blocked(dist_obs, costmap, pose))
 
 
-# -- footprint clearance -------------------------------------------------------------
-def obstacle_distance(costmap):
-    """Distance [m] from each cell to the nearest lethal or unknown cell centre (OpenCV's
-    exact Euclidean distance transform); None when the costmap has no such cell."""
-    data = costmap.data
-    blocked = (data == LETHAL_OBSTACLE) | (data == NO_INFORMATION)
-    if not blocked.any():
-        return None
-    return distance_transform((~blocked).astype(np.uint8)) * costmap.resolution
-
-
-def footprint_checks(footprint):
-    """(covers, corners) for footprint_clearance: the footprint's axis circles and grid
-    circles, and its polygon's corners (None for a round robot, which has none)."""
-    covers = (footprint.covering_circles(), footprint.grid_circles())
-    return covers, (None if footprint.is_circle else footprint.polygon)
-
-
-def footprint_clearance(dist_m, costmap, x, y, th, covers, corners=None):
-    """Clearance [m] (negative: collision) of footprint poses from blocked cells.
-
-    dist_m: (H, W) distance [m] of each cell centre to the nearest blocked (lethal or
-    unknown) cell centre; x, y, th: poses (any shape, same) in the costmap frame;
-    covers: ((centres (K, 2) [m], radius [m]), ...) circle sets that each cover the
-    footprint. A cover proves a pose free when every circle's centre is farther than
-    radius + a margin (half a cell for the first cover, FINE_MARGIN_CELLS for the
-    others) from any blocked cell, so the clearance of a pose is the best
-    of its covers' (min over circles of distance - radius - half a cell). The first
-    cover is evaluated everywhere; each next one only where the clearance so far is
-    below FINE_CHECK_BELOW (near obstacles: few poses). The distance field is
-    interpolated bilinearly: a nearest-cell lookup would be off by up to half a cell
-    diagonal and jump as the robot crosses cells.
-    corners (K, 2) [m] (optional, robot frame): the footprint's corners, where the first
-    cover's circles touch the outline and half a cell of margin falls short of a blocked
-    cell's square by up to CORNER_SLACK_CELLS: a pose whose clearance is below that and
-    that has a corner inside a blocked cell gets minus the corner's depth in it.
-    """
-    shape = np.shape(x)
-    x = np.asarray(x, dtype=np.float64).ravel()
-    y = np.asarray(y, dtype=np.float64).ravel()
-    th = np.asarray(th, dtype=np.float64).ravel()
-    field = np.asarray(dist_m, dtype=np.float32)
-    (centres, radius), rest = covers[0], covers[1:]
-    clear = _cover_clearance(field, costmap, x, y, th, centres, radius, 0.5 * costmap.resolution)
-    for centres, radius in rest:
-        near = np.flatnonzero(clear < FINE_CHECK_BELOW)
-        if near.size == 0:
-            break
-        # The small circles pass through their cells' corners, right on the footprint's
-        # outline: a whole cell of margin (a blocked cell's square reaches half a diagonal
-        # past its centre, and the bilinear distance runs high next to a point obstacle).
-        fine = _cover_clearance(field, costmap, x[near], y[near], th[near], centres, radius,
-                                FINE_MARGIN_CELLS * costmap.resolution)
-        clear[near] = np.maximum(clear[near], fine)
-    if corners is not None:
-        near = np.flatnonzero(clear < CORNER_SLACK_CELLS * costmap.resolution)
-        if near.size:
-            clear[near] = np.minimum(clear[near], _corner_clearance(
-                field, costmap, x[near], y[near], th[near], np.asarray(corners, dtype=np.float64)))
-    return clear.reshape(shape)
-
-
-def _cover_clearance(field, costmap, x, y, th, centres, radius, margin):
-    """min over the circles of (interpolated distance at the circle centre - radius - margin [m])."""
-    res = costmap.resolution
-    clear = np.full(x.shape, np.inf, dtype=np.float32)
-    c, s = np.cos(th), np.sin(th)
-    for cx, cy in centres:
-        # Continuous cell-centre coordinates; remap_bilinear interpolates bilinearly (in
-        # C, OpenCV's remap to the bit) and answers OUTSIDE_DIST off the grid.
-        fx = ((x + cx * c - cy * s - costmap.origin_x) / res - 0.5).astype(np.float32)
-        fy = ((y + cx * s + cy * c - costmap.origin_y) / res - 0.5).astype(np.float32)
-        np.minimum(clear, remap_bilinear(field, fx, fy, OUTSIDE_DIST), out=clear)
-    return clear.astype(np.float64) - (radius + margin)
-
-
-def _corner_clearance(field, costmap, x, y, th, corners):
-    """(N,) minus how deep [m] the deepest footprint corner lies inside a blocked cell
-    (field <= 0), inf where no corner is in one; poses x, y, th (N,), corners (K, 2) [m]
-    in the robot frame."""
-    res = costmap.resolution
-    h, w = field.shape
-    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
-    fx = (x[:, None] + corners[:, 0] * c - corners[:, 1] * s - costmap.origin_x) / res  # (N, K) [cells]
-    fy = (y[:, None] + corners[:, 0] * s + corners[:, 1] * c - costmap.origin_y) / res
-    mx, my = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
-    inside = (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
-    blocked = inside & (field[my.clip(0, h - 1), mx.clip(0, w - 1)] <= 0.0)
-    depth = res * (0.5 - np.maximum(np.abs(fx - mx - 0.5), np.abs(fy - my - 0.5)))  # to the cell's nearest side
-    return np.where(blocked, -depth, np.inf).min(axis=1)
-
-
-def _nearest_blocked(dist_m, costmap, pose):
-    """'; nearest obstacle cell 0.52 m away, 170 deg from the heading' (for a failure reason)."""
-    res = costmap.resolution
-    h, w = costmap.data.shape
-    r = int(math.ceil(1.0 / res))
-    cell = costmap.world_to_map(pose[0], pose[1])
-    if cell is None:
-        return ""
-    x0, y0 = max(0, cell[0] - r), max(0, cell[1] - r)
-    sub = costmap.data[y0:min(h, cell[1] + r + 1), x0:min(w, cell[0] + r + 1)]
-    ys, xs = np.nonzero((sub == LETHAL_OBSTACLE) | (sub == NO_INFORMATION))
-    if len(xs) == 0:
-        return "; no obstacle cell within 1 m"
-    wx = costmap.origin_x + (xs + x0 + 0.5) * res - pose[0]
-    wy = costmap.origin_y + (ys + y0 + 0.5) * res - pose[1]
-    k = int(np.argmin(np.hypot(wx, wy)))
-    bearing = math.degrees(wrap_angle(math.atan2(wy[k], wx[k]) - pose[2]))
-    return f"; nearest obstacle cell {math.hypot(wx[k], wy[k]):.2f} m away, {bearing:.0f} deg from the heading"
-
-
-# -- clearance policy ----------------------------------------------------------------
-@dataclass(frozen=True)
-class ClearancePolicy:
-    """How low a motion's footprint clearance [m] (footprint_clearance: negative once the
-    padded footprint overlaps a blocked cell) may go, from the robot's clearance c0 [m]
-    now and the footprint_padding [m]: every limit DWA and the recoveries check against.
-
-    - ``normal``: 0, the padded footprint never reaches a blocked cell (DWA with c0 >= 0
-      off the inscribed zone; plain dwa_local_planner).
-    - ``escape(floor)``: escape mode (c0 < 0, or no ordinary trajectory): ESCAPE_TOL
-      below the clearance floor, for the millimetres the measured clearance along a wall
-      of laser-marked cells wobbles by, but with a padding never past the unpadded
-      footprint's edge (-padding), and once past it only ESCAPE_SLACK below the floor.
-      With no padding there is no margin to keep.
-    - ``escape_floor(c0, previous)``: the floor escape mode keeps, min(c0, 0), that only
-      rises while the robot escapes; when the clearance falls below what it allows it
-      starts over from c0 with no slack left (ESCAPE_SLACK below c0).
-    - ``creep(floor, c0)``: a slow forward or turning move judged only up to where it
-      could stop: the escape limit, but no lower than c0 and never within ESCAPE_SLACK
-      of touching.
-    - ``creep_back(c0)``: the clearance a slow reversing move must be back at by the time
-      it could stop (ESCAPE_SLACK more than now); ``back_out(c0)``: at the end of the
-      scored horizon (ESCAPE_GAIN more), unless it goes back along the plan.
-    - ``recovery(c0)``: a recovery's motion (rotate_recovery, back_up): 0, or from inside
-      the padding ESCAPE_TOL lower but not past the unpadded edge, and never more than
-      ESCAPE_SLACK below c0.
-    - ``rotation(c0)``: the in-place turn to the goal heading: ESCAPE_SLACK below
-      min(c0, 0).
-    """
-
-    padding: float = 0.0     # [m] footprint_padding
-    normal = 0.0
-
-    def escape(self, floor):
-        if self.padding <= 0.0:
-            return floor - ESCAPE_TOL
-        return max(floor - ESCAPE_TOL, min(-self.padding, floor - ESCAPE_SLACK))
-
-    def escape_floor(self, c0, previous):
-        floor = min(c0, 0.0)
-        if previous is not None:
-            floor = max(floor, previous)
-        if self.escape(floor) > c0:
-            floor = c0 + ESCAPE_TOL - ESCAPE_SLACK
-            if self.escape(floor) > c0 - ESCAPE_SLACK + 1e-9:
-                floor = c0
-        return floor
-
-    def creep(self, floor, c0):
-        return max(self.escape(floor), min(c0, ESCAPE_SLACK))
-
-    @staticmethod
-    def creep_back(c0):
-        return c0 + ESCAPE_SLACK
-
-    @staticmethod
-    def back_out(c0):
-        return c0 + ESCAPE_GAIN
-
-    def recovery(self, c0):
-        return min(0.0, max(c0 - ESCAPE_TOL, -self.padding), c0 - ESCAPE_SLACK)
-
-    @staticmethod
-    def rotation(c0):
-        return min(0.0, c0) - ESCAPE_SLACK
-
-
-# -- oscillation ----------------------------------------------------------------------
-class OscillationFlags:
-    """base_local_planner's OscillationCostFunction: forbid reversing a motion just made."""
-
-    NAMES = ("forward_pos", "forward_neg", "strafe_pos", "strafe_neg", "rot_pos", "rot_neg")
-
-    def __init__(self, reset_dist, reset_angle):
-        self.reset_dist = reset_dist
-        self.reset_angle = reset_angle
-        self.reset()
-        self.prev_stationary = None
-
-    def reset(self):
-        """Clear all flags (new plan, or the robot moved far enough)."""
-        for n in self.NAMES:
-            setattr(self, n, False)
-            setattr(self, n + "_only", False)
-
-    def forbidden(self, samples):
-        """(N,) bool: samples that would reverse a flagged motion."""
-        vx, vy, w = samples[:, 0], samples[:, 1], samples[:, 2]
-        bad = np.zeros(len(samples), dtype=bool)
-        if self.forward_pos_only:
-            bad |= vx < 0
-        if self.forward_neg_only:
-            bad |= vx > 0
-        if self.strafe_pos_only:
-            bad |= vy < 0
-        if self.strafe_neg_only:
-            bad |= vy > 0
-        if self.rot_pos_only:
-            bad |= w < 0
-        if self.rot_neg_only:
-            bad |= w > 0
-        return bad
-
-    def _set(self, v, pos, neg):
-        flag = False
-        if v < 0:
-            if getattr(self, pos):
-                setattr(self, neg + "_only", True)
-                flag = True
-            setattr(self, pos, False)
-            setattr(self, neg, True)
-        if v > 0:
-            if getattr(self, neg):
-                setattr(self, pos + "_only", True)
-                flag = True
-            setattr(self, neg, False)
-            setattr(self, pos, True)
-        return flag
-
-    def update(self, pose, cmd, min_vel_trans):
-        """After choosing cmd at pose: set flags on reversals, reset them once moved enough."""
-        flag = self._set(cmd[0], "forward_pos", "forward_neg")
-        if abs(cmd[0]) <= min_vel_trans:  # strafe / rotation flags only when not driving
-            flag |= self._set(cmd[1], "strafe_pos", "strafe_neg")
-            flag |= self._set(cmd[2], "rot_pos", "rot_neg")
-        if flag or self.prev_stationary is None:
-            self.prev_stationary = pose
-        if any(getattr(self, n + "_only") for n in self.NAMES):
-            px, py, pth = self.prev_stationary
-            if (math.hypot(pose[0] - px, pose[1] - py) > self.reset_dist
-                    or abs(wrap_angle(pose[2] - pth)) > self.reset_angle):
-                self.reset()
-
-
-# -- goal rotation --------------------------------------------------------------------
-def held_turn(v, w, acc, dt):
-    """The angle [rad] a base turning at w [rad/s] covers when v [rad/s] (same sign, >= 0
-    here) is commanded and held for dt [s] while the base ramps toward it at acc
-    [rad/s^2], and then braked to rest at acc."""
-    t_ramp = min(dt, abs(v - w) / acc)
-    reached = w + math.copysign(acc * t_ramp, v - w)
-    held = 0.5 * (w + reached) * t_ramp + reached * (dt - t_ramp)
-    return held + reached * reached / (2.0 * acc)
-
-
-def rotation_speed(err, vth, acc, max_vel, min_vel, tolerance, dt):
-    """Signed in-place turn rate [rad/s] toward a heading err [rad] away (time-optimal).
-
-    base_local_planner's rotateToGoal turns at min(max_vel_theta, |err|) rad/s (a
-    proportional law: the last radian takes seconds) capped by sqrt(2 acc |err|); here
-    the bang-bang profile: the fastest command (<= max_vel, and no more than the base
-    reaches within dt) that, held for the period dt [s] the command stays in force (one
-    control period, or the measured latency of a late loop) while the base ramps toward
-    it at acc [rad/s^2], can still be braked at acc to stop half a tolerance short of
-    the heading (held_turn). Never slower than min_vel [rad/s] outside the tolerance (the
-    base would not move), unless min_vel held for dt would carry the heading past the far
-    edge of the tolerance: a late loop at min_vel would then turn back and forth across
-    it until move_base gives up.
-    """
-    e = abs(err)
-    w = abs(vth) if vth * err > 0 else 0.0          # current speed toward the heading
-    target = max(0.0, e - 0.5 * tolerance)
-    lo, hi = 0.0, min(max_vel, w + acc * dt)        # no faster than the base reaches within dt
-    if held_turn(hi, w, acc, dt) > target:
-        for _ in range(40):                         # held_turn grows with v: bisection
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if held_turn(mid, w, acc, dt) <= target else (lo, mid)
-    else:
-        lo = hi
-    floor = min_vel if held_turn(min_vel, w, acc, dt) <= e + tolerance else 0.0
-    return math.copysign(max(floor, lo), err)
-
-
-# -- control latency ------------------------------------------------------------------
-class LatencyMeter:
-    """Control-loop latency: the longest interval between control cycles over the last
-    `window` cycles. On a loaded machine (or a simulator faster than real time) the loop
-    runs late and each command stays in force longer than one period; DWA brakes for that
-    (DWAPlanner.set_control_latency). A gap of `pause` [s] or more is a pause between
-    goals, not latency."""
-
-    def __init__(self, window, pause=2.0):
-        self.intervals = collections.deque(maxlen=max(1, int(window)))
-        self.pause = float(pause)
-        self.last = None
-
-    def reset(self):
-        self.intervals.clear()
-        self.last = None
-
-    def update(self, now):
-        """A control cycle at time now [s]; returns the latency [s], or None before two cycles."""
-        if self.last is not None and 0.0 < now - self.last < self.pause:
-            self.intervals.append(now - self.last)
-        self.last = now
-        return max(self.intervals) if self.intervals else None
-
-
 # -- the planner ----------------------------------------------------------------------
-class HeldPlan:
-    """What both local planners do with the plan they hold: self.plan ((N, 2) points in the
-    local frame, or None) and self.goal_yaw [rad], re-expressed by reframe_plan."""
-
-    def reframe_plan(self, delta):
-        """nav_core's LocalPlanner.reframe_plan (transformGlobalPlan, each cycle): the plan
-        (as pruned) and goal heading re-expressed by the rigid transform delta (x [m],
-        y [m], yaw [rad]); the goal latch and the pruning are kept."""
-        if self.plan is None:
-            return
-        self.plan = transform_points(self.plan, delta)
-        self.goal_yaw = float(wrap_angle(self.goal_yaw + delta[2]))
-
-
 class DWAPlanner(HeldPlan):
     """The DWA local planner (nav_core's BaseLocalPlanner, without ROS).
 

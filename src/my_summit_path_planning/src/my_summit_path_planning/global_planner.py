@@ -81,8 +81,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from .navfn import (POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints,
-                    start_region)
+from .global_plan import (POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints,
+                          start_region)
 from .params import ParamError, _coerce
 
 from summit_nav_common.jit import njit

@@ -33,7 +33,7 @@ import numpy as np
 from summit_nav_common.geometry import compose, inverse
 
 from .cost_values import FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from .dwa import LatencyMeter
+from .latency import LatencyMeter
 
 PLANNING, CONTROLLING, CLEARING = "PLANNING", "CONTROLLING", "CLEARING"
 # What sent move_base to CLEARING, and the abort text when the recoveries are used up

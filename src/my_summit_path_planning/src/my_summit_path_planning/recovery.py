@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .dwa import ClearancePolicy, footprint_checks, footprint_clearance, obstacle_distance, wrap_angle
+from .clearance import ClearancePolicy, footprint_checks, footprint_clearance, obstacle_distance
+from summit_nav_common.geometry import wrap_angle
 
 DEFAULT_LAYER_NAMES = ("obstacles",)      # clear_costmap_recovery's default layer_names
 AFFECTED_MAPS = ("local", "global", "both")  # clear_costmap_recovery's affected_maps values
@@ -272,7 +273,7 @@ def footprint_free(footprint, costmap, pose, x, y, th, limit=None):
     (x, y, yaw) keeps its clearance from the lethal and unknown cells (DWA's
     footprint_clearance: axis circles, refined by the grid circles and the corners near
     obstacles): >= 0, or from a pose already inside footprint_padding, down to
-    dwa.ClearancePolicy.recovery. Held to >= 0 there, a robot that DWA's escape mode had left a
+    clearance.ClearancePolicy.recovery. Held to >= 0 there, a robot that DWA's escape mode had left a
     centimetre from a wall could neither back up nor turn at all. limit: the lowest
     clearance allowed, as a function of the start pose's clearance (default:
     ClearancePolicy.recovery with the footprint's padding)."""
