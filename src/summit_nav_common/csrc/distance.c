@@ -97,6 +97,21 @@ int snc_edt(const uint8_t *src, int64_t h, int64_t w, float *dist)
 #define CH_SHIFT 16
 #define CH_FAR (INT32_MAX >> 2)
 
+/* One chamfer step at a cell: the least of (*best, t[n] + weight[n]) over the 8 mask
+   neighbours, in the order given, strict comparisons (the first of equals wins), and the
+   label it came from. Off the grid t holds CH_FAR: CH_FAR + weight is never chosen. */
+static void chamfer_relax(const int32_t *t, const int64_t *toff, const int64_t *loff, const int32_t *weight,
+                          const int32_t *labels, int32_t *best, int32_t *lab)
+{
+    for (int n = 0; n < 8; ++n) {
+        int32_t cand = t[toff[n]] + weight[n];
+        if (*best > cand) {
+            *best = cand;
+            *lab = labels[loff[n]];
+        }
+    }
+}
+
 /* dist (h x w floats), labels (h x w int32) <- the 5x5 chamfer distance to the nearest
    zero cell of src and that cell's label. Returns 0, or -1 when out of memory. */
 int snc_chamfer5_labels(const uint8_t *src, int64_t h, int64_t w, float *dist, int32_t *labels)
@@ -132,14 +147,7 @@ int snc_chamfer5_labels(const uint8_t *src, int64_t h, int64_t w, float *dist, i
                 continue;
             }
             int32_t best = CH_FAR, lab = 0;
-            for (int n = 0; n < 8; ++n) {
-                int32_t cand = t[x + ft[n]] + fw[n];
-                if (best > cand) {
-                    best = cand;
-                    /* off the grid the distance is CH_FAR + weight, never chosen */
-                    lab = labels[y * w + x + fl[n]];
-                }
-            }
+            chamfer_relax(t + x, ft, fl, fw, labels + y * w + x, &best, &lab);
             t[x] = best;
             labels[y * w + x] = lab;
         }
@@ -158,13 +166,7 @@ int snc_chamfer5_labels(const uint8_t *src, int64_t h, int64_t w, float *dist, i
         for (int64_t x = w - 1; x >= 0; --x) {
             int32_t best = t[x], lab = labels[y * w + x];
             if (best > a) {
-                for (int n = 0; n < 8; ++n) {
-                    int32_t cand = t[x + bt[n]] + bw[n];
-                    if (best > cand) {
-                        best = cand;
-                        lab = labels[y * w + x + bl[n]];
-                    }
-                }
+                chamfer_relax(t + x, bt, bl, bw, labels + y * w + x, &best, &lab);
                 t[x] = best;
                 labels[y * w + x] = lab;
             }
