@@ -12,7 +12,7 @@ trajectory aligned to the graph (blue), the graph's nodes (red), its loop-closur
 (green), the title with the final graph's aligned ATE against the corrected poses.
 
 Usage: karto_loop_picture.py LOG [--seed 1] [--scans N] [--out docs/img/karto_loop_closure.png]
-  e.g. karto_loop_picture.py data/carmen/aces-corrected.log.gz
+  e.g. karto_loop_picture.py data/carmen/intel-corrected.log.gz   (the README's picture)
 """
 import argparse
 import dataclasses
@@ -123,7 +123,7 @@ def main(argv=None):
               f"CPU {cpu:.1f} s", flush=True)
         panels.append(panel(mapper, reference, f"{name}, karto {label}\n{len(mapper.node_poses())} nodes, {loops} loop "
                                     f"edges, ATE {ate:.2f} m (odometry {odom_ate:.2f} m)\n"
-                                    "red: graph nodes, green: loop edges, blue: the log's corrected path"))
+                                    "red: nodes, green: loop edges, blue: the log's path"))
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     tmp = args.out + ".tmp.png"
     cv2.imwrite(tmp, side_by_side(*panels))
