@@ -116,7 +116,7 @@ class KartoParams:
     use_response_expansion: bool = _p(False, "widen the heading window when nothing matched")
     range_threshold: float = _p(12.0, "readings beyond this are not matched, and free the map up to it "
                                       "(open_karto's laser RangeThreshold) [m]", 0.0)
-    correlation_search_max_recenters: int = _p(2, "times the sequential search window moves onto a best "
+    correlation_search_max_recenters: int = _p(0, "times the sequential search window moves onto a best "
                                                   "pose found at its edge (ours; 0: open_karto's fixed window) [-]", 0)
     loop_closure_max_correction: float = _p(3.0, "a loop closure that moves a node farther is "
                                                  "rejected (ours) [m]", 0.0)
