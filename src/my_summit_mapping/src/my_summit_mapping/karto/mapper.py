@@ -18,9 +18,9 @@ For each scan (add_scan):
 2. Predict: the last node's correction applied to the new odometry pose.
 3. Sequential match against the running buffer (the last `scan_buffer_size` nodes within
    `scan_buffer_maximum_scan_distance`), penalized, coarse then fine; the node takes the
-   matched pose. Where the coarse best lies on the window's edge, the window moves onto
-   it (`correlation_search_max_recenters`, ours): with scans a metre apart the
-   odometry's error can exceed open_karto's +-0.15 m window.
+   matched pose. Optionally (`correlation_search_max_recenters`, ours, off by default)
+   the window moves onto a coarse best found at its edge, for scans so far apart that
+   the odometry's error can exceed open_karto's +-0.15 m window.
 4. Edges: to the previous node ("sequential", the match's covariance; "odometry" when
    scan matching is off or the match found nothing), to the closest node of the running
    buffer, and to each near chain (nodes tied to this one through the graph within
