@@ -8,7 +8,20 @@ from numpy.testing import assert_allclose
 from my_summit_mapping.karto import loop_closure as lc
 from my_summit_mapping.karto.optimizer import optimize, optimize_graph
 from my_summit_mapping.karto.pose_graph import Node, PoseGraph, between, compose
-from test_karto_optimizer import square_loop
+from my_summit_mapping.karto.pose_graph import wrap
+
+
+def square_loop():
+    """True poses (K, 3) of a 4 m x 3 m loop driven counter-clockwise in 0.5 m steps."""
+    poses = []
+    x, y, th = 0.0, 0.0, 0.0
+    for length in (4.0, 3.0, 4.0, 3.0):
+        for _ in range(int(length / 0.5)):
+            poses.append((x, y, th))
+            x += 0.5 * math.cos(th)
+            y += 0.5 * math.sin(th)
+        th = float(wrap(th + math.pi / 2))
+    return np.array(poses)
 
 SEQ_COV = np.diag([0.02 ** 2, 0.02 ** 2, math.radians(0.5) ** 2])   # [m^2, m^2, rad^2]
 LOOP_COV = np.diag([0.03 ** 2, 0.03 ** 2, math.radians(1.0) ** 2])
