@@ -156,15 +156,24 @@ class LikelihoodFieldModel:
         return self._table
 
     def _buffers(self, n, b):
-        """Preallocated (n, b) work arrays, grown when a bigger set arrives."""
+        """Preallocated (n, b) work arrays, grown when a bigger set arrives.
+
+        With a 4-byte dtype (the default float32) the six arrays share three blocks:
+        each is written only after the one it shares with is read for the last time
+        (ix over tmp, iy over ex, val over ey; see cell_indices and weights), which
+        halves the model's memory (7.2 -> 3.6 MB at 5000 particles x 60 beams) with
+        the same operations, so the same results.
+        """
         have = self._buf.get("shape", (0, 0))
         if have[0] < n or have[1] < b:
             shape = (max(n, have[0]), max(b, have[1]))
-            self._buf = {"shape": shape,
-                         "ex": np.empty(shape, self.dtype), "ey": np.empty(shape, self.dtype),
-                         "tmp": np.empty(shape, self.dtype),
-                         "ix": np.empty(shape, np.int32), "iy": np.empty(shape, np.int32),
-                         "val": np.empty(shape, np.float32)}
+            ex, ey, tmp = (np.empty(shape, self.dtype) for _ in range(3))
+            if self.dtype.itemsize == 4:
+                ix, iy, val = tmp.view(np.int32), ex.view(np.int32), ey.view(np.float32)
+            else:
+                ix, iy = np.empty(shape, np.int32), np.empty(shape, np.int32)
+                val = np.empty(shape, np.float32)
+            self._buf = {"shape": shape, "ex": ex, "ey": ey, "tmp": tmp, "ix": ix, "iy": iy, "val": val}
         return {k: (v[:n, :b] if k != "shape" else v) for k, v in self._buf.items()}
 
     # -- the model -----------------------------------------------------------------
