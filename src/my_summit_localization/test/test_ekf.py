@@ -220,3 +220,35 @@ def test_fast_step_matches_the_reference():
         dt = rng.uniform(0.001, 0.3)
         assert_allclose(ekf.predict_step(x, dt, j), ekf.predict_state(x, dt), atol=1e-12)
         assert_allclose(j, ekf.predict_jacobian(x, dt), atol=1e-12)
+
+
+def test_fast_correction_matches_the_reference():
+    """Ekf.correct (no H, P's Joseph update on the measured columns only) against
+    correction_reference (H, S, K and (I - K H) P (I - K H)^T + K R K^T as written) on
+    random states, covariances and subsets, angles among them."""
+    rng = np.random.default_rng(5)
+    for trial in range(200):
+        f = Ekf(Q, np.eye(STATE_SIZE), two_d_mode=False)
+        a = rng.normal(0.0, 0.3, (STATE_SIZE, STATE_SIZE))
+        p = a @ a.T + 0.01 * np.eye(STATE_SIZE)
+        x = rng.normal(0.0, 1.0, STATE_SIZE)
+        x[3:6] = rng.uniform(-math.pi, math.pi, 3)
+        f.reset(x, p, stamp=0.0)
+        n = rng.integers(1, 7)
+        idx = sorted(rng.choice(STATE_SIZE, n, replace=False).tolist())
+        z = rng.normal(0.0, 1.0, STATE_SIZE)
+        z[3:6] = rng.uniform(-math.pi, math.pi, 3)
+        b = rng.normal(0.0, 0.2, (STATE_SIZE, STATE_SIZE))
+        cov = b @ b.T + 1e-3 * np.eye(STATE_SIZE)
+        mask = np.zeros(STATE_SIZE, dtype=bool)
+        mask[idx] = True
+        threshold = math.inf if trial % 2 else 3.0
+        x_ref, p_ref, d2_ref = ekf.correction_reference(x, p, idx, z, cov, threshold)
+        out = f.correct(Measurement(0.0, z, cov, mask, threshold, "test"))
+        assert out.mahalanobis_sq == pytest.approx(d2_ref, rel=1e-9)
+        assert out.accepted == (x_ref is not None)
+        if x_ref is not None:
+            assert_allclose(f.x, x_ref, atol=1e-9)
+            assert_allclose(f.P, p_ref, atol=1e-9)
+        else:
+            assert_allclose(f.x, x, atol=0)

@@ -209,6 +209,7 @@ class Ekf:
         self._fixed_diag = np.zeros((STATE_SIZE, STATE_SIZE))
         self._fixed_diag[self._fixed, self._fixed] = TWO_D_VARIANCE
         self._free_2d = np.outer(free, free)
+        self._selections = {}                 # measured indices -> _Selection, built once each
         self.reset()
 
     def reset(self, state=None, covariance=None, stamp=None):
@@ -279,43 +280,43 @@ class Ekf:
         return np.flatnonzero(mask).tolist()
 
     def correct(self, m: Measurement, idx=None) -> Outcome:
-        """The EKF correction with m's masked variables (no prediction)."""
+        """The EKF correction with m's masked variables (no prediction). The fast form of
+        correction_reference (the tests' oracle): H is never built, P's Joseph update is
+        written with the n measured columns of P only (see _joseph)."""
         if idx is None:
             idx = self.usable_indices(m)
         if not idx:
             return Outcome(False, "nothing to fuse (masked variables absent or not finite)")
-        idx = list(idx)
-        r = _measurement_covariance(m.cov[np.ix_(idx, idx)])
+        key = tuple(idx)
+        sel = self._selections.get(key)
+        if sel is None:
+            sel = self._selections[key] = _Selection(key)
+        r = _measurement_covariance(m.cov[sel.block])
         if not math.isfinite(r.sum()):
-            return Outcome(False, "covariance not finite", None, tuple(idx))
-        innovation = m.z[idx] - self.x[idx]
-        for k, i in enumerate(idx):
-            if 3 <= i <= 5:   # roll, pitch, yaw
-                innovation[k] = (innovation[k] + math.pi) % TWO_PI - math.pi
-        ph = self.P[:, idx]                       # P H^T
-        s = ph[idx, :] + r                        # H P H^T + R
-        try:
-            s_inv = np.linalg.inv(s)
-        except np.linalg.LinAlgError:
-            return Outcome(False, "innovation covariance singular", None, tuple(idx))
+            return Outcome(False, "covariance not finite", None, key)
+        innovation = m.z[sel.index] - self.x[sel.index]
+        for k in sel.angles:   # roll, pitch, yaw innovations wrapped
+            innovation[k] = (innovation[k] + math.pi) % TWO_PI - math.pi
+        ph = self.P[:, sel.index]                 # P H^T (15, n)
+        s = ph[sel.index] + r                     # H P H^T + R
+        s_inv = _inverse(s)
+        if s_inv is None:
+            return Outcome(False, "innovation covariance singular", None, key)
         d2 = float(innovation @ s_inv @ innovation)
         if not math.isfinite(d2):
-            return Outcome(False, "innovation not finite", None, tuple(idx))
+            return Outcome(False, "innovation not finite", None, key)
         if d2 >= m.threshold * m.threshold:
             return Outcome(False, f"Mahalanobis distance {math.sqrt(d2):.3g} >= threshold {m.threshold:g}",
-                           d2, tuple(idx))
+                           d2, key)
         k = ph @ s_inv                             # (15, n)
         x = self.x + k @ innovation
         x[3:6] = (x[3:6] + math.pi) % TWO_PI - math.pi
-        ikh = IDENTITY.copy()
-        ikh[:, idx] -= k
-        p = ikh @ self.P @ ikh.T
-        p += k @ r @ k.T
+        p = _joseph(self.P, ph, k, r, sel.index)
         if not math.isfinite(x.sum() + p.sum()):
-            return Outcome(False, "update not finite", d2, tuple(idx))
+            return Outcome(False, "update not finite", d2, key)
         self.x, self.P = x, _symmetric(p)
         self._force_two_d()
-        return Outcome(True, "", d2, tuple(idx))
+        return Outcome(True, "", d2, key)
 
     def _force_two_d(self):
         if not self.two_d_mode:
@@ -323,6 +324,63 @@ class Ekf:
         self.x[self._fixed] = 0.0
         self.P *= self._free_2d          # rows and columns of the fixed variables to 0 ...
         self.P += self._fixed_diag       # ... and their variances to TWO_D_VARIANCE
+
+
+class _Selection:
+    """The index arrays of one set of measured state indices (a sensor's _config gives
+    the same set message after message, so they are built once)."""
+
+    def __init__(self, idx):
+        self.index = np.array(idx, dtype=np.intp)
+        self.block = np.ix_(self.index, self.index)
+        self.angles = [k for k, i in enumerate(idx) if i in ANGLES]
+
+
+def _inverse(s):
+    """S^-1 of the (n, n) innovation covariance; None when singular. n = 1 (a gyro's yaw
+    rate, most messages) without LAPACK."""
+    if s.shape[0] == 1:
+        v = s[0, 0]
+        return None if v == 0.0 else np.array([[1.0 / v]])
+    try:
+        return np.linalg.inv(s)
+    except np.linalg.LinAlgError:
+        return None
+
+
+def _joseph(p, ph, k, r, index):
+    """(I - K H) P (I - K H)^T + K R K^T with H the rows `index` of the identity, from
+    P H^T = ph (15, n) and K (15, n): (I - K H) P = P - K ph^T (P symmetric), and
+    M (I - K H)^T = M - M[:, index] K^T; 15 x n products instead of 15 x 15 ones."""
+    ap = p - k @ ph.T
+    out = ap - ap[:, index] @ k.T
+    out += (k @ r) @ k.T
+    return out
+
+
+def correction_reference(x, p, idx, z, cov, threshold=math.inf):
+    """The EKF correction in its obvious matrix form, the oracle of Ekf.correct: H the
+    measured rows of the identity, S = H P H^T + R, K = P H^T S^-1, x + K y (angles
+    wrapped), P by Joseph's form. x (15,), p (15, 15), idx the measured indices, z (15,)
+    and cov (15, 15) the measurement. Returns (x, P, d2) with d2 the squared Mahalanobis
+    distance, or (None, None, d2) when rejected."""
+    idx = list(idx)
+    h = IDENTITY[idx, :]
+    r = _measurement_covariance(cov[np.ix_(idx, idx)])
+    y = h @ z - h @ x
+    for k, i in enumerate(idx):
+        if i in ANGLES:
+            y[k] = float(wrap(y[k]))
+    s = h @ p @ h.T + r
+    s_inv = np.linalg.inv(s)
+    d2 = float(y @ s_inv @ y)
+    if d2 >= threshold * threshold:
+        return None, None, d2
+    k = p @ h.T @ s_inv
+    x_new = x + k @ y
+    x_new[3:6] = wrap(x_new[3:6])
+    ikh = IDENTITY - k @ h
+    return x_new, _symmetric(ikh @ p @ ikh.T + k @ r @ k.T), d2
 
 
 def _measurement_covariance(r):
