@@ -130,10 +130,11 @@ class LikelihoodFieldModel:
         self.frame = _GridFrame(grid)
         self.dtype = np.dtype(dtype)
         self.max_dist = float(config.laser_likelihood_max_dist)
-        self.dist = obstacle_distance_field(grid.data, grid.resolution, self.max_dist)
-        h, w = self.dist.shape
+        dist = obstacle_distance_field(grid.data, grid.resolution, self.max_dist)
+        h, w = dist.shape
         padded = np.full((h + 2 * PAD, w + 2 * PAD), self.max_dist)
-        padded[PAD:PAD + h, PAD:PAD + w] = self.dist
+        padded[PAD:PAD + h, PAD:PAD + w] = dist
+        self.dist = padded[PAD:PAD + h, PAD:PAD + w]   # a view: the field is not kept twice
         self._dist_padded = padded
         self._row_stride = w + 2 * PAD
         self._table = None          # flattened per-cell value (pz^3 or log pz)
