@@ -93,11 +93,31 @@ class SensorState:
     prev_pose: np.ndarray = None          # differential: (4x4, cov 6x6, stamp)
     first_pose: np.ndarray = None         # relative: the first pose's 4x4
 
+    def __post_init__(self):
+        # The measurement masks each message of this sensor gets, made once from config
+        # (15 bools): part name -> (15,) bool, its state indices set where config selects.
+        self.config = np.asarray(self.config, dtype=bool)
+        c = self.config
+        self.masks = {name: _part_mask(dest, c[src]) for name, dest, src in (
+            ("pose", POSE, POSE), ("pose_differential", TWIST, POSE), ("twist", TWIST, TWIST),
+            ("orientation", slice(3, 6), slice(3, 6)), ("orientation_differential", slice(9, 12), slice(3, 6)),
+            ("angular_velocity", slice(9, 12), slice(9, 12)), ("linear_acceleration", ACCEL, ACCEL))}
+        self.uses_pose, self.uses_twist = bool(c[POSE].any()), bool(c[TWIST].any())
+        self.uses_orientation, self.uses_angular_velocity = bool(c[3:6].any()), bool(c[9:12].any())
+        self.uses_acceleration = bool(c[ACCEL].any())
+
     def reset(self):
         """Forget the previous pose (differential) and the first one (relative), as
         set_pose does."""
         self.prev_pose = None
         self.first_pose = None
+
+
+def _part_mask(dest, flags):
+    mask = np.zeros(STATE_SIZE, dtype=bool)
+    mask[dest] = flags
+    mask.flags.writeable = False     # shared by every measurement of its sensor
+    return mask
 
 
 def _measurement(stamp, values, mask, threshold, source):
@@ -106,7 +126,7 @@ def _measurement(stamp, values, mask, threshold, source):
     for sl, v, cv in values:
         z[sl] = v
         c[sl, sl] = cv
-    return Measurement(stamp, z, c, np.asarray(mask, dtype=bool), threshold, source)
+    return Measurement(stamp, z, c, mask, threshold, source)
 
 
 def pose_measurement(s: SensorState, stamp, pose, cov, world_from_frame=None):
@@ -128,7 +148,6 @@ def pose_measurement(s: SensorState, stamp, pose, cov, world_from_frame=None):
         r0 = s.first_pose[:3, :3]
         t = invert(s.first_pose) @ t
         cov = rotate6(cov, r0.T)
-    mask = np.zeros(STATE_SIZE, dtype=bool)
     if s.differential:
         prev, s.prev_pose = s.prev_pose, (t, cov, stamp)
         if prev is None:
@@ -140,10 +159,9 @@ def pose_measurement(s: SensorState, stamp, pose, cov, world_from_frame=None):
         delta = pose6(invert(t_prev) @ t)
         r_prev_t = t_prev[:3, :3].T
         twist_cov = (rotate6(cov_prev, r_prev_t) + rotate6(cov, r_prev_t)) * dt
-        mask[TWIST] = s.config[POSE]
-        return _measurement(stamp, [(TWIST, delta / dt, twist_cov)], mask, s.pose_threshold, s.topic)
-    mask[POSE] = s.config[POSE]
-    return _measurement(stamp, [(POSE, pose6(t), cov)], mask, s.pose_threshold, s.topic)
+        return _measurement(stamp, [(TWIST, delta / dt, twist_cov)], s.masks["pose_differential"],
+                            s.pose_threshold, s.topic)
+    return _measurement(stamp, [(POSE, pose6(t), cov)], s.masks["pose"], s.pose_threshold, s.topic)
 
 
 def twist_measurement(s: SensorState, stamp, twist, cov, base_from_frame=None):
@@ -155,9 +173,13 @@ def twist_measurement(s: SensorState, stamp, twist, cov, base_from_frame=None):
     if base_from_frame is not None:
         twist = np.concatenate([base_from_frame @ twist[:3], base_from_frame @ twist[3:]])
         cov = rotate6(cov, base_from_frame)
-    mask = np.zeros(STATE_SIZE, dtype=bool)
-    mask[TWIST] = s.config[TWIST]
-    return _measurement(stamp, [(TWIST, twist, cov)], mask, s.twist_threshold, s.topic)
+    return _measurement(stamp, [(TWIST, twist, cov)], s.masks["twist"], s.twist_threshold, s.topic)
+
+
+def _provided(cov):
+    """False when a sensor_msgs/Imu covariance (9 values or 3x3) says its part is not
+    provided: element 0 is -1."""
+    return float(np.ravel(cov)[0]) != -1.0
 
 
 def imu_measurements(s: SensorState, stamp, orientation, orientation_cov, angular_velocity, angular_velocity_cov,
@@ -167,11 +189,14 @@ def imu_measurements(s: SensorState, stamp, orientation, orientation_cov, angula
     frame into the body frame by base_from_imu (3x3; None: identity). A part whose
     covariance[0] is -1 (sensor_msgs/Imu: not provided) is left out, as is an
     orientation whose quaternion is zero."""
-    r_bi = np.eye(3) if base_from_imu is None else np.asarray(base_from_imu, dtype=np.float64)
+    r_bi = None if base_from_imu is None else np.asarray(base_from_imu, dtype=np.float64)
     out = []
-    ocov = np.asarray(orientation_cov, dtype=np.float64).reshape(3, 3)
-    r_wi = matrix_from_quaternion(orientation) if ocov[0, 0] != -1.0 else None
-    if r_wi is not None and s.config[3:6].any():
+    # the orientation, when a part uses it: the orientation's own, or gravity's removal
+    needs_orientation = s.uses_orientation or (s.uses_acceleration and s.remove_gravitational_acceleration)
+    r_wi = matrix_from_quaternion(orientation) if needs_orientation and _provided(orientation_cov) else None
+    if r_wi is not None and s.uses_orientation:
+        r_bi = np.eye(3) if r_bi is None else r_bi
+        ocov = np.asarray(orientation_cov, dtype=np.float64).reshape(3, 3)
         r_wb = r_wi @ r_bi.T
         ori = np.array(euler_from_matrix(r_wb))
         ori_cov = r_bi @ ocov @ r_bi.T
@@ -179,36 +204,33 @@ def imu_measurements(s: SensorState, stamp, orientation, orientation_cov, angula
             if s.first_pose is None:
                 s.first_pose = r_wb.copy()
             ori = np.array(euler_from_matrix(s.first_pose.T @ r_wb))
-        mask = np.zeros(STATE_SIZE, dtype=bool)
         if s.differential:
             prev, s.prev_pose = s.prev_pose, (ori, ori_cov, stamp)
             if prev is not None and stamp > prev[2]:
                 dt = stamp - prev[2]
                 r_prev = rotation(*prev[0])
                 delta = np.array(euler_from_matrix(r_prev.T @ rotation(*ori)))
-                mask[9:12] = s.config[3:6]
                 out.append(_measurement(stamp, [(slice(9, 12), delta / dt, (prev[1] + ori_cov) * dt)],
-                                        mask, s.pose_threshold, s.topic))
+                                        s.masks["orientation_differential"], s.pose_threshold, s.topic))
         else:
-            mask[3:6] = s.config[3:6]
-            out.append(_measurement(stamp, [(slice(3, 6), ori, ori_cov)], mask, s.pose_threshold, s.topic))
-    wcov = np.asarray(angular_velocity_cov, dtype=np.float64).reshape(3, 3)
-    if wcov[0, 0] != -1.0 and s.config[9:12].any():
-        mask = np.zeros(STATE_SIZE, dtype=bool)
-        mask[9:12] = s.config[9:12]
-        w = r_bi @ np.asarray(angular_velocity, dtype=np.float64)
-        out.append(_measurement(stamp, [(slice(9, 12), w, r_bi @ wcov @ r_bi.T)], mask,
+            out.append(_measurement(stamp, [(slice(3, 6), ori, ori_cov)], s.masks["orientation"], s.pose_threshold,
+                                    s.topic))
+    if s.uses_angular_velocity and _provided(angular_velocity_cov):
+        w = np.asarray(angular_velocity, dtype=np.float64)
+        wcov = np.asarray(angular_velocity_cov, dtype=np.float64).reshape(3, 3)
+        if r_bi is not None:    # None: the IMU's frame is the body frame
+            w, wcov = r_bi @ w, r_bi @ wcov @ r_bi.T
+        out.append(_measurement(stamp, [(slice(9, 12), w, wcov)], s.masks["angular_velocity"],
                                 s.angular_velocity_threshold, s.topic))
-    acov = np.asarray(linear_acceleration_cov, dtype=np.float64).reshape(3, 3)
-    if acov[0, 0] != -1.0 and s.config[ACCEL].any():
+    if s.uses_acceleration and _provided(linear_acceleration_cov):
+        r_bi = np.eye(3) if r_bi is None else r_bi
+        acov = np.asarray(linear_acceleration_cov, dtype=np.float64).reshape(3, 3)
         a = np.asarray(linear_acceleration, dtype=np.float64)
         if s.remove_gravitational_acceleration:
             # gravity as the IMU feels it (an upward specific force), in the IMU's frame
             up = np.array([0.0, 0.0, s.gravity])
             a = a - (r_wi.T @ up if r_wi is not None else up)
-        mask = np.zeros(STATE_SIZE, dtype=bool)
-        mask[ACCEL] = s.config[ACCEL]
-        out.append(_measurement(stamp, [(ACCEL, r_bi @ a, r_bi @ acov @ r_bi.T)], mask,
+        out.append(_measurement(stamp, [(ACCEL, r_bi @ a, r_bi @ acov @ r_bi.T)], s.masks["linear_acceleration"],
                                 s.linear_acceleration_threshold, s.topic))
     return out
 
@@ -218,11 +240,11 @@ def odometry_measurements(s: SensorState, stamp, pose, pose_cov, twist, twist_co
     """nav_msgs/Odometry: its pose part (pose_measurement) and twist part
     (twist_measurement), each when s.config selects any of it."""
     out = []
-    if s.config[POSE].any():
+    if s.uses_pose:
         m = pose_measurement(s, stamp, pose, pose_cov, world_from_frame)
         if m is not None:
             out.append(m)
-    if s.config[TWIST].any():
+    if s.uses_twist:
         out.append(twist_measurement(s, stamp, twist, twist_cov, base_from_child))
     return out
 
