@@ -8,8 +8,6 @@ good ones go on; ~serialize_map -> ~deserialize_map gives back the same graph an
 mapping continues on it; corrupt, foreign and missing files, a laser that does not fit
 and slam_toolbox's localization mode refused with the reason, the current graph kept.
 """
-import importlib.machinery
-import importlib.util
 import os
 from pathlib import Path
 
@@ -22,6 +20,7 @@ from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker
 
 from my_summit_mapping.srv import DeserializePoseGraphRequest, SerializePoseGraphRequest
+from summit_nav_common.testing.nodes import load_node_module as load_node
 from summit_nav_common.testing.scenes import ANGLES, ray_cast
 
 NODE = Path(__file__).resolve().parents[1] / "nodes" / "slam_karto"
@@ -34,11 +33,7 @@ IDLE = 60.0           # [s wall] the worker takes the scans within this
 
 
 def load_node_module():
-    loader = importlib.machinery.SourceFileLoader("slam_karto_node", str(NODE))
-    spec = importlib.util.spec_from_loader(loader.name, loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return load_node(NODE, "slam_karto_node")
 
 
 def base_pose(t):

@@ -23,6 +23,8 @@ poses.
 import threading
 import time
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import rospy
@@ -33,8 +35,9 @@ from sensor_msgs.msg import LaserScan
 from my_summit_mapping.rbpf import RbpfSlam
 from my_summit_mapping.slam_config import SlamConfig
 from summit_nav_common.testing.scenes import ANGLES, ray_cast
-from test_tf_loop_shutdown import _load_node_module
+from summit_nav_common.testing.nodes import load_node_module
 
+NODE = Path(__file__).resolve().parents[1] / "nodes" / "slam_gmapping"
 PARAMS = dict(particles=8, transform_publish_period=0.0, xmin=-6.0, ymin=-5.0, xmax=6.0, ymax=5.0)
 SEED = 3
 LASER_X = 0.25        # laser mount in base_link (SlamConfig default base_frame) [m]
@@ -110,7 +113,7 @@ class _HeldSlam(RbpfSlam):
 
 @pytest.fixture
 def node_module(monkeypatch):
-    module = _load_node_module()
+    module = load_node_module(NODE, "slam_gmapping_node")
     subscribers = {}
     names = ["/slam_gmapping/" + k for k in PARAMS]
     monkeypatch.setattr(rospy, "get_name", lambda: "/slam_gmapping")

@@ -9,8 +9,6 @@ rospy.core.signal_shutdown sets is_shutdown_requested(), runs the pre-shutdown h
 registration manager's cleanup closes every topic there) and only then sets
 is_shutdown(): the fake below keeps that order, and a check of is_shutdown() alone fails.
 """
-import importlib.machinery
-import importlib.util
 import threading
 import types
 from pathlib import Path
@@ -19,15 +17,13 @@ import numpy as np
 import pytest
 import rospy
 
+from summit_nav_common.testing.nodes import load_node_module
+
 NODE = Path(__file__).resolve().parents[1] / "nodes" / "slam_gmapping"
 
 
 def _load_node_module():
-    loader = importlib.machinery.SourceFileLoader("slam_gmapping_node", str(NODE))
-    spec = importlib.util.spec_from_loader(loader.name, loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return load_node_module(NODE, "slam_gmapping_node")
 
 
 class _ClosingBroadcaster:
