@@ -127,8 +127,9 @@ def integrate_pose(pose, vel, dt):
     return (x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, wrap_angle(yaw + wz * dt))
 
 
-def noisy_increment(params, inc, rng):
-    """Odometry's view of a true body increment: drift noise and yaw scale error."""
+def _drifted_increment(params, inc, yaw_scale, rng):
+    """A true body increment with the drift noise (three draws of rng) and its rotation
+    measured ``yaw_scale`` times too large."""
     dx, dy, dth = inc
     trans = math.hypot(dx, dy)
     rot = abs(dth)
@@ -138,8 +139,12 @@ def noisy_increment(params, inc, rng):
     sd_rot = math.sqrt(params.odom_rot_noise ** 2 * rot + params.odom_rot_per_trans ** 2 * trans)
     e = rng.standard_normal(3)
     scale = 1.0 + e[0] * sd_trans / trans if trans > 0.0 else 1.0
-    return (dx * scale, dy * scale,
-            dth * (1.0 + params.odom_yaw_scale_error) + e[2] * sd_rot)
+    return (dx * scale, dy * scale, dth * yaw_scale + e[2] * sd_rot)
+
+
+def noisy_increment(params, inc, rng):
+    """Odometry's view of a true body increment: drift noise and yaw scale error."""
+    return _drifted_increment(params, inc, 1.0 + params.odom_yaw_scale_error, rng)
 
 
 def skid_yaw_scale(params, wz, s):
@@ -167,16 +172,7 @@ def skid_increment(params, inc, wz, s, rng):
     """Skid-steer odometry's view of a true body increment (dx, dy, dth) made at turn
     rate wz [rad/s]: noisy_increment's noise (the same three draws of rng) with the yaw
     scale skid_yaw_scale(params, wz, s) in place of the constant one."""
-    dx, dy, dth = inc
-    trans = math.hypot(dx, dy)
-    rot = abs(dth)
-    if trans == 0.0 and rot == 0.0:
-        return inc
-    sd_trans = params.odom_trans_noise * math.sqrt(trans)
-    sd_rot = math.sqrt(params.odom_rot_noise ** 2 * rot + params.odom_rot_per_trans ** 2 * trans)
-    e = rng.standard_normal(3)
-    scale = 1.0 + e[0] * sd_trans / trans if trans > 0.0 else 1.0
-    return (dx * scale, dy * scale, dth * skid_yaw_scale(params, wz, s) + e[2] * sd_rot)
+    return _drifted_increment(params, inc, skid_yaw_scale(params, wz, s), rng)
 
 
 def skid_twist(params, vel, s):
