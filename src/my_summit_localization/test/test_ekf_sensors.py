@@ -10,6 +10,7 @@ from my_summit_localization import ekf_config, ekf_runner, ekf_sensors
 from my_summit_localization.ekf import STATE_SIZE, VX, VY, VYAW, X, YAW, predict_state
 from my_summit_localization.ekf_config import ConfigError, read_config
 from my_summit_localization.ekf_sensors import SensorState
+from summit_nav_common.geometry import euler_from_matrix, quaternion_from_euler
 
 T, F = True, False
 POSE_XY_YAW = [T, T, F, F, F, T] + [F] * 9
@@ -245,9 +246,9 @@ def test_set_pose_resets_state_and_references():
 def test_quaternion_round_trip():
     rng = np.random.default_rng(1)
     for rpy in rng.uniform(-1.2, 1.2, (20, 3)):
-        r = ekf_sensors.matrix_from_quaternion(ekf_sensors.quaternion_from_euler(*rpy))
+        r = ekf_sensors.matrix_from_quaternion(quaternion_from_euler(*rpy))
         assert_allclose(r, ekf_sensors.rotation(*rpy), atol=1e-12)
-        assert_allclose(ekf_sensors.euler_from_matrix(r), rpy, atol=1e-12)
+        assert_allclose(euler_from_matrix(r), rpy, atol=1e-12)
 
 
 # ----- odometry error --------------------------------------------------------------------

@@ -6,19 +6,11 @@ import pytest
 from numpy.testing import assert_allclose
 
 from my_summit_mapping import laser_mount
-from summit_nav_common.geometry import quaternion_matrix
-
-
-def _quat(roll, pitch, yaw):
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+from summit_nav_common.geometry import quaternion_from_euler, quaternion_matrix
 
 
 def test_upright_laser_adds_its_yaw():
-    rot = quaternion_matrix(*_quat(0.0, 0.0, 0.4))
+    rot = quaternion_matrix(*quaternion_from_euler(0.0, 0.0, 0.4))
     assert laser_mount.is_level(rot)
     angles = laser_mount.beam_angles_in_base(rot, -2.0, 0.5, 9)
     expected = 0.4 + (-2.0 + 0.5 * np.arange(9))
@@ -26,7 +18,7 @@ def test_upright_laser_adds_its_yaw():
 
 
 def test_upside_down_laser_mirrors_the_beams():
-    rot = quaternion_matrix(*_quat(math.pi, 0.0, 0.0))
+    rot = quaternion_matrix(*quaternion_from_euler(math.pi, 0.0, 0.0))
     assert laser_mount.is_level(rot)
     angles = laser_mount.beam_angles_in_base(rot, -1.0, 0.25, 9)
     assert_allclose(angles, -(-1.0 + 0.25 * np.arange(9)), atol=1e-12)
@@ -36,7 +28,7 @@ def test_upside_down_laser_mirrors_the_beams():
                                                 (0.1, 0.0, False), (math.pi / 2, 0.0, False)])
 def test_level_tolerance_is_gmappings(roll, pitch, level):
     # gmapping: | |up_z| - 1 | < 0.001, i.e. about 2.6 degrees of tilt
-    assert laser_mount.is_level(quaternion_matrix(*_quat(roll, pitch, 0.0))) is level
+    assert laser_mount.is_level(quaternion_matrix(*quaternion_from_euler(roll, pitch, 0.0))) is level
 
 
 def test_zero_quaternion_is_an_error():

@@ -17,18 +17,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from summit_nav_common.geometry import euler_from_matrix
+
 from .ekf import STATE_SIZE, Measurement, rotation
 
 POSE = slice(0, 6)     # x y z roll pitch yaw
 TWIST = slice(6, 12)   # vx vy vz vroll vpitch vyaw
 ACCEL = slice(12, 15)  # ax ay az
 STANDARD_GRAVITY = 9.80665   # [m/s^2] robot_localization's gravitational_acceleration default
-
-
-def euler_from_matrix(r):
-    """(roll, pitch, yaw) [rad] of a rotation matrix R = Rz Ry Rx."""
-    return (math.atan2(r[2, 1], r[2, 2]), -math.asin(max(-1.0, min(1.0, r[2, 0]))),
-            math.atan2(r[1, 0], r[0, 0]))
 
 
 def matrix_from_quaternion(q):
@@ -247,12 +243,3 @@ def odometry_measurements(s: SensorState, stamp, pose, pose_cov, twist, twist_co
     if s.uses_twist:
         out.append(twist_measurement(s, stamp, twist, twist_cov, base_from_child))
     return out
-
-
-def quaternion_from_euler(roll, pitch, yaw):
-    """Quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
