@@ -15,6 +15,7 @@ from my_summit_path_planning.global_planner import (
     RIGHTWARD, GlobalPlanner, GlobalPlannerConfig, _expand, orientation_filter, planner_costs,
     potential_reference, potential_to_occupancy)
 from my_summit_path_planning.navfn import NavFn, NavfnConfig, grid_geodesic_length
+from my_summit_path_planning.param_reader import UNREAD
 from my_summit_path_planning.params import ParamError
 
 
@@ -368,7 +369,7 @@ def test_from_params_defaults_and_unknown_keys():
     p = GlobalPlanner.from_params({"use_dijkstra": False, "cost_factor": 1, "planner_costmap_publish_frequency": 1.0,
                                    "foo": 2})
     assert p.config.use_dijkstra is False and p.config.cost_factor == 1.0
-    assert p.unknown_params == ("foo", "planner_costmap_publish_frequency")
+    assert tuple(n.param for n in p.notes if n.kind == UNREAD) == ("foo", "planner_costmap_publish_frequency")
     d = GlobalPlanner.from_params(None).config
     assert (d.allow_unknown, d.default_tolerance, d.visualize_potential, d.use_dijkstra, d.use_quadratic,
             d.use_grid_path, d.old_navfn_behavior, d.lethal_cost, d.neutral_cost, d.cost_factor,

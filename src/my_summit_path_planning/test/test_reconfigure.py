@@ -240,7 +240,7 @@ def test_global_callback_refuses_what_the_planner_refuses(monkeypatch):
     cb(dict(config), 0)
     out = cb(dict(config, neutral_cost=300), 0)
     assert out["neutral_cost"] == 50 and node.planner.config.neutral_cost == 50
-    assert any("GlobalPlanner/neutral_cost: must be in [1, 255], got 300" in t for t in ros.warnings)
+    assert any("GlobalPlanner: 'neutral_cost' must be in [1, 255], got 300 (GlobalPlanner/neutral_cost)" in t for t in ros.warnings)
 
 
 # -- choice of servers, the .cfg files -------------------------------------------------------------

@@ -74,7 +74,6 @@ Deliberate differences from the real planner:
 - When the gradient descent fails the grid path is used (as the real planner once did); ForwardThenInterpolate blends from the start of the straight stretch
   (the real filter offsets the blend by that index).
 """
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -83,7 +82,7 @@ import numpy as np
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from .global_plan import (POT_HIGH, PlanResult, _nearest_reached, _why_unreachable, path_length, plan_endpoints,
                           start_region)
-from .params import ParamError, _coerce
+from .param_reader import Schema
 
 from summit_nav_common.jit import njit
 
@@ -139,6 +138,7 @@ class GlobalPlannerConfig:
 _RANGES = {"lethal_cost": (1, 255), "neutral_cost": (1, 255), "cost_factor": (0.01, 5.0),
            "orientation_mode": (0, len(ORIENTATION_MODES) - 1), "orientation_window_size": (1, 255),
            "default_tolerance": (0.0, math.inf), "publish_scale": (1, 127)}
+SCHEMA = Schema.of(GlobalPlannerConfig, **{k: dict(lo=lo, hi=hi) for k, (lo, hi) in _RANGES.items()})
 
 
 @dataclass
@@ -552,39 +552,26 @@ class GlobalPlanner:
     cells the expansion accepted.
     """
 
-    KNOWN_PARAMS = frozenset(f.name for f in dataclasses.fields(GlobalPlannerConfig))
+    KNOWN_PARAMS = frozenset(SCHEMA.known)
 
     def __init__(self, config=None):
         self.config = config or GlobalPlannerConfig()
         self.potential = None
         self.cells_expanded = 0
-        self.unknown_params = ()
+        self.notes = []   # param_reader notes about the parameters it was built from
 
     @classmethod
-    def from_params(cls, params, where="GlobalPlanner"):
-        """A planner from the GlobalPlanner namespace's dict.
+    def from_params(cls, params, where="GlobalPlanner", note_where=None):
+        """A planner from the GlobalPlanner namespace's dict (SCHEMA: the real names,
+        defaults and dynamic_reconfigure's ranges).
 
         Wrong types or values out of the real ranges raise ParamError naming
-        ``where/key``; names the real planner does not read are kept, sorted, in
-        ``unknown_params`` (for the node to log once as ignored).
+        ``where/key``; names the real planner does not read are left unread and noted in
+        ``notes`` (prefixed with note_where, default where), for the node to log once.
         """
-        if params is None:
-            params = {}
-        if not isinstance(params, dict):
-            raise ParamError(f"{where}: expected a mapping of parameters, got {params!r}")
-        fields = {f.name: f for f in dataclasses.fields(GlobalPlannerConfig)}
-        kwargs = {}
-        for key, value in params.items():
-            if key not in fields:
-                continue
-            value = _coerce(GlobalPlannerConfig.__name__, fields[key], value, f"{where}/{key}")
-            if key in _RANGES:
-                lo, hi = _RANGES[key]
-                if not lo <= value <= hi:
-                    raise ParamError(f"{where}/{key}: must be in [{lo}, {hi}], got {value!r}")
-            kwargs[key] = value
-        planner = cls(GlobalPlannerConfig(**kwargs))
-        planner.unknown_params = tuple(sorted(str(k) for k in params if k not in fields))
+        r = SCHEMA.read(params, where, note_where)
+        planner = cls(GlobalPlannerConfig(**r.values))
+        planner.notes = r.notes
         return planner
 
     def make_plan(self, costmap, start, goal, tolerance=None):

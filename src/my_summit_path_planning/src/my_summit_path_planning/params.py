@@ -7,25 +7,24 @@ and ~local_costmap, each plugin's under its own namespace (~NavfnROS, ~DWAPlanne
 file layout (load_move_base_params): costmap_common_params.yaml is loaded into both
 costmap namespaces.
 
-Each parameter is declared once, in its dataclass, with type, unit and default. A value
+Each parameter is declared once, in its dataclass, with type, unit and default; ranges
+and old names are added where the dataclass is read (param_reader.Schema.of). A value
 of the wrong type raises ParamError naming the file section, the parameter and what is
 allowed. A name no dataclass has is left unread, as the real nodes leave it, and
-reported in the config's notes for the node to log once (summit_nav_common.params).
+reported in the config's notes for the node to log once (param_reader's notes).
 DWA's renamed parameters (Kinetic names) are read as dwa_local_planner reads them.
 """
-import dataclasses
-import math
 import os
 from dataclasses import dataclass, field
 
 from summit_nav_common.files import load_yaml
-from summit_nav_common.params import unread_note
 
 from .cost_values import FREE_SPACE, NO_INFORMATION
 from . import costmap_params
 from .costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
 from .dwa import DWAConfig
 from .navfn import NavfnConfig
+from .param_reader import ParamError, Schema
 
 CONFIG_FILES = ("move_base_params.yaml", "costmap_common_params.yaml",
                 "global_costmap_params.yaml", "local_costmap_params.yaml",
@@ -39,10 +38,6 @@ CONFIG_FILES = ("move_base_params.yaml", "costmap_common_params.yaml",
 DWA_RENAMED = {"max_trans_vel": "max_vel_trans", "min_trans_vel": "min_vel_trans",
                "max_rot_vel": "max_vel_theta", "min_rot_vel": "min_vel_theta",
                "acc_limit_trans": "acc_lim_trans", "rot_stopped_vel": "theta_stopped_vel"}
-
-
-class ParamError(ValueError):
-    """A parameter of the wrong type or out of range (or a malformed namespace)."""
 
 
 @dataclass
@@ -111,79 +106,42 @@ class CostmapConfig:
     notes: list = field(default_factory=list)
 
 
-_TYPES = {bool: (bool,), int: (int,), float: (int, float), str: (str,)}
-
-
-def _coerce(cls_name, f, value, where):
-    t = f.type if not isinstance(f.type, str) else {"bool": bool, "int": int, "float": float,
-                                                     "str": str}.get(f.type)
-    if t in _TYPES:
-        ok = isinstance(value, _TYPES[t]) and not (t is not bool and isinstance(value, bool))
-        if not ok:
-            raise ParamError(f"{where}: '{f.name}' must be {t.__name__}, got {value!r}")
-        if t is float:
-            value = float(value)
-            if not math.isfinite(value):
-                raise ParamError(f"{where}: '{f.name}' must be finite, got {value!r}")
-    return value
-
-
-def from_dict(cls, params, where, notes=None, internal=(), note_where=None):
-    """Build dataclass cls from a parameter dict; ParamError on a value of the wrong type.
-
-    A name cls has no field for is not read; its warning (prefixed with note_where,
-    default where) is appended to `notes` when a list is given. `internal`: fields that
-    are not parameters (never read from the dict)."""
-    if params is None:
-        params = {}
-    if not isinstance(params, dict):
-        raise ParamError(f"{where}: expected a mapping of parameters, got {params!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in internal}
-    kwargs = {}
-    for key, value in params.items():
-        if key in fields:
-            kwargs[key] = _coerce(cls.__name__, fields[key], value, where)
-        elif notes is not None:
-            notes.append(unread_note(where if note_where is None else note_where, key, fields))
-    return cls(**kwargs)
-
-
-def _positive(where, **values):
-    for k, v in values.items():
-        if not v > 0:
-            raise ParamError(f"{where}: '{k}' must be > 0, got {v}")
+MOVE_BASE_SCHEMA = Schema.of(MoveBaseConfig)
+COSTMAP_SCHEMA = Schema.of(CostmapConfig, internal=("layer_params", "notes"),
+                           **{k: dict(lo=0.0, lo_open=True) for k in ("resolution", "width", "height")})
+# dwa_local_planner's dynamic_reconfigure raises a sample count below the .cfg's minimum, 1
+_SAMPLES = dict(lo=1, clamp=True, note="{where}: '{name}' {value} raised to 1, its least value "
+                                       "(dwa_local_planner's dynamic_reconfigure clamps it the same way)")
+_DWA_FIELDS = {k: dict(lo=0.0, lo_open=True) for k in ("controller_frequency", "sim_time", "sim_granularity",
+                                                      "angular_sim_granularity", "max_vel_theta", "acc_lim_x",
+                                                      "acc_lim_theta")}
+_DWA_FIELDS.update({k: _SAMPLES for k in ("vx_samples", "vy_samples", "vth_samples")})
+for _old, _new in DWA_RENAMED.items():
+    _DWA_FIELDS[_new] = dict(_DWA_FIELDS.get(_new, {}), renamed=(_old,))
+DWA_SCHEMA = Schema.of(DWAConfig, **_DWA_FIELDS)
+NAVFN_SCHEMA = Schema.of(NavfnConfig, default_tolerance=dict(lo=0.0))
 
 
 def dwa_config(params, where="DWAPlannerROS", notes=None):
     """DWAConfig from the DWAPlannerROS dict, checked. notes (a list): the real node's
     warning for each renamed name (not read), one per other name it does not read,
     sample counts raised to 1."""
-    notes = [] if notes is None else notes
-    if isinstance(params, dict):
-        notes += [f"Parameter {old} is deprecated (and will not load properly). Use {new} instead."
-                  for old, new in DWA_RENAMED.items() if old in params]
-        params = {k: v for k, v in params.items() if k not in DWA_RENAMED}
-    cfg = from_dict(DWAConfig, params, where, notes=notes)
-    _positive(where, controller_frequency=cfg.controller_frequency, sim_time=cfg.sim_time,
-              sim_granularity=cfg.sim_granularity, angular_sim_granularity=cfg.angular_sim_granularity,
-              max_vel_theta=cfg.max_vel_theta, acc_lim_x=cfg.acc_lim_x, acc_lim_theta=cfg.acc_lim_theta)
+    r = DWA_SCHEMA.read(params, where)
+    if notes is not None:
+        notes += r.notes
+    cfg = DWAConfig(**r.values)
     if cfg.min_vel_x > cfg.max_vel_x or cfg.min_vel_y > cfg.max_vel_y:
         raise ParamError(f"{where}: min_vel_x/y must not exceed max_vel_x/y")
-    for k in ("vx_samples", "vy_samples", "vth_samples"):
-        if getattr(cfg, k) < 1:  # dynamic_reconfigure clamps to the .cfg's minimum, 1
-            notes.append(f"{where}: '{k}' {getattr(cfg, k)} raised to 1, its least value "
-                         f"(dwa_local_planner's dynamic_reconfigure clamps it the same way)")
-            setattr(cfg, k, 1)
     return cfg
 
 
 def navfn_config(params, where="NavfnROS", notes=None):
     """NavfnConfig from the NavfnROS dict, checked; notes (a list): one warning per name
     it does not read."""
-    cfg = from_dict(NavfnConfig, params, where, notes=notes)
-    if cfg.default_tolerance < 0:
-        raise ParamError(f"{where}: 'default_tolerance' must be >= 0, got {cfg.default_tolerance}")
-    return cfg
+    r = NAVFN_SCHEMA.read(params, where)
+    if notes is not None:
+        notes += r.notes
+    return NavfnConfig(**r.values)
 
 
 def costmap_config(params, where):
@@ -210,11 +168,8 @@ def costmap_config(params, where):
     layer_params = {k: v for k, v in params.items() if isinstance(v, dict)}
     rest = {k: v for k, v in params.items() if not isinstance(v, dict)}
     # its notes are logged with the costmap's name in front (LayeredCostmap.warn_once)
-    cfg = from_dict(CostmapConfig, rest, where, notes=notes, internal=("layer_params", "notes"), note_where="")
-    cfg.layer_params = layer_params
-    cfg.notes = notes
-    _positive(where, resolution=cfg.resolution, width=cfg.width, height=cfg.height)
-    return cfg
+    r = COSTMAP_SCHEMA.read(rest, where, note_where="")
+    return CostmapConfig(**r.values, layer_params=layer_params, notes=notes + r.notes)
 
 
 def build_costmap(cfg, where="costmap", log=None):
@@ -283,16 +238,13 @@ def move_base_params(ns, where="move_base"):
         raise ParamError(f"{where}: expected a namespace of parameters, got {ns!r}")
     own = {k: v for k, v in ns.items() if not isinstance(v, dict)}
     subs = {k: v for k, v in ns.items() if isinstance(v, dict)}
-    notes = []   # logged by the node as "move_base: ..."
-    mb = from_dict(MoveBaseConfig, own, where, notes=notes, note_where="")
-    if mb.recovery_behaviors is not None and not isinstance(mb.recovery_behaviors, list):
-        raise ParamError(f"{where}: 'recovery_behaviors' must be a list of {{name, type}}, "
-                         f"got {mb.recovery_behaviors!r}")
+    r = MOVE_BASE_SCHEMA.read(own, where, note_where="")   # notes logged as "move_base: ..."
+    mb = MoveBaseConfig(**r.values)
     costmaps = {name: costmap_config(subs.pop(name, {}), f"{where}/{name}")
                 for name in ("global_costmap", "local_costmap")}
     return MoveBaseParams(move_base=mb, namespaces=subs,
                           ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v),
-                          notes=tuple(notes), **costmaps)
+                          notes=tuple(r.notes), **costmaps)
 
 
 def _read(path):

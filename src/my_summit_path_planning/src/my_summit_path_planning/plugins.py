@@ -67,7 +67,7 @@ def _navfn(params, ctx, where):
 
 def _global_planner(params, ctx, where):
     from .global_planner import GlobalPlanner   # numba: loaded only when chosen
-    return GlobalPlanner.from_params(params, where)
+    return GlobalPlanner.from_params(params, where, f"~{where}")
 
 
 def _carrot_planner(params, ctx, where):
@@ -264,7 +264,8 @@ def plugin_notes(name, planner):
     their parameters; NavfnROS and DWAPlannerROS put the second kind in their warnings)."""
     unused = sorted(set(getattr(planner, "ignored", ())) | set(getattr(planner, "unknown_params", ())))
     known = getattr(planner, "KNOWN_PARAMS", ())
-    return list(getattr(planner, "warnings", ())) + [unread_note(f"~{name}", k, known) for k in unused]
+    return list(getattr(planner, "notes", ())) + list(getattr(planner, "warnings", ())) \
+        + [unread_note(f"~{name}", k, known) for k in unused]
 
 
 class MoveBasePlugins:
