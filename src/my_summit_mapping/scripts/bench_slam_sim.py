@@ -18,8 +18,11 @@ With --profile, one more run has slam_gmapping under summit_nav_common.testing.p
 integration, resampling, the map's publication, ...) go to the JSON as profile_shares. The
 profiler slows the node: that run's figures are not the benchmark's.
 
+With --ekf, the tour is mapped on the odometry fused by ekf_localization_node
+(my_summit_localization's ekf.launch mapping:=true: the simulator's odom tf off).
+
 Usage: bench_slam_sim.py [--runs 1] [--speed 3] [--json PATH] [--out DIR] [--profile]
-                         [--timeout 600] [--launch-arg name:=value ...]
+                         [--timeout 600] [--ekf] [--launch-arg name:=value ...]
 """
 import argparse
 import json
@@ -70,7 +73,11 @@ def run_once(index, args, world, log_dir):
     params_path = os.path.join(HERE, "..", "config", "gmapping_params.yaml")
     with open(params_path) as f:
         config = SlamConfig.from_dict(yaml.safe_load(f))
-    launch = ["my_summit_mapping", "gmapping.launch", f"speed:={args.speed}", "driver:=tour"] + args.launch_arg
+    if args.ekf:   # the documented way to map on the fused odometry (docs/ekf.md)
+        launch = ["my_summit_localization", "ekf.launch", "mapping:=true", "sim:=true", "tour:=true",
+                  f"speed:={args.speed}"] + args.launch_arg
+    else:
+        launch = ["my_summit_mapping", "gmapping.launch", f"speed:={args.speed}", "driver:=tour"] + args.launch_arg
     log = os.path.join(log_dir, f"bench_slam_sim_run{index}.log")
     profile = os.path.join(log_dir, "slam_gmapping_profile") if args.profile else None
     if profile:
@@ -132,8 +139,12 @@ def main(argv=None):
     parser.add_argument("--launch-arg", action="append", default=[], help="extra roslaunch arg name:=value")
     parser.add_argument("--profile", action="store_true",
                         help="one more run with slam_gmapping profiled: where its time goes")
+    parser.add_argument("--ekf", action="store_true",
+                        help="map on the odometry fused by ekf_localization_node (ekf.launch mapping:=true)")
     parser.add_argument("--run-index", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.ekf and args.profile:
+        parser.error("--profile profiles gmapping.launch's slam_gmapping; ekf.launch's launch_prefix is the EKF's")
     out = args.out or os.path.join(WS, "output", "bench_slam_sim")
     os.makedirs(out, exist_ok=True)
     if args.run_index is None:
@@ -157,7 +168,8 @@ def run_all(args, out):
           f"{'sim s':>6} {'scans':>5}", flush=True)
     def child(i, extra=()):
         cmd = [sys.executable, os.path.abspath(__file__), "--run-index", str(i), "--speed", str(args.speed),
-               "--timeout", str(args.timeout), "--out", out] + [f"--launch-arg={a}" for a in args.launch_arg]
+               "--timeout", str(args.timeout), "--out", out] + [f"--launch-arg={a}" for a in args.launch_arg] \
+            + (["--ekf"] if args.ekf else [])
         proc = subprocess.run(cmd + list(extra), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
         if proc.returncode != 0 or not lines:
