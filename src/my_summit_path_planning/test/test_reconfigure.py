@@ -143,9 +143,9 @@ def test_trajectory_out_of_range_is_refused(monkeypatch):
 
 
 @pytest.mark.parametrize("change, message", [
-    ({"sim_time": 0.0}, "TrajectoryPlannerROS/sim_time: must be > 0, got 0.0"),
-    ({"angular_sim_granularity": 0.0}, "TrajectoryPlannerROS/angular_sim_granularity: must be > 0"),
-    ({"y_vels": "fast,slow"}, "TrajectoryPlannerROS/y_vels: expected a list of floats, got 'fast,slow'"),
+    ({"sim_time": 0.0}, "TrajectoryPlannerROS: 'sim_time' must be > 0, got 0.0 (TrajectoryPlannerROS/sim_time)"),
+    ({"angular_sim_granularity": 0.0}, "TrajectoryPlannerROS: 'angular_sim_granularity' must be > 0"),
+    ({"y_vels": "fast,slow"}, "TrajectoryPlannerROS: 'y_vels' must be a list of floats, got 'fast,slow'"),
 ])
 def test_trajectory_unusable_values_are_refused(monkeypatch, change, message):
     """In the .cfg's range (or a string) but the planner cannot run with it: refused, nothing changes."""

@@ -21,6 +21,7 @@ from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning import footprint_cost as fc
 from my_summit_path_planning import trajectory_planner as tp
 from my_summit_path_planning.costmap import Costmap2D, Footprint
+from my_summit_path_planning.param_reader import UNREAD
 from my_summit_path_planning.params import ParamError
 
 RES = 0.05  # [m/cell]
@@ -411,14 +412,14 @@ def test_no_way_to_the_plan_fails(fp):
 
 # -- parameters -------------------------------------------------------------------------------------
 def test_defaults_are_the_real_ones():
-    cfg, warnings, ignored = tp.trajectory_planner_config({})
+    cfg, notes = tp.trajectory_planner_config({})
     assert (cfg.acc_lim_x, cfg.acc_lim_theta, cfg.max_vel_x, cfg.min_vel_x, cfg.max_vel_theta, cfg.min_vel_theta,
             cfg.min_in_place_vel_theta, cfg.escape_vel, cfg.sim_time, cfg.vx_samples, cfg.vtheta_samples) == \
         (2.5, 3.2, 0.5, 0.1, 1.0, -1.0, 0.4, -0.1, 1.0, 3, 20)
     assert cfg.y_vels == (-0.3, -0.1, 0.1, 0.3) and cfg.holonomic_robot and cfg.dwa
     assert cfg.angular_granularity == cfg.sim_granularity == 0.025
     assert cfg.escape_reset_theta == pytest.approx(math.pi / 4) and cfg.sim_period == 0.05
-    assert warnings == [tp.METER_SCORING_UNSET] and ignored == []
+    assert notes == [tp.METER_SCORING_UNSET]
 
 
 def test_deprecated_names_map_and_warn(fp):
@@ -432,20 +433,20 @@ def test_deprecated_names_map_and_warn(fp):
         (2.0, 0.8, -0.8, 0.3, -0.2)
     assert c.path_distance_bias == 0.5 and c.goal_distance_bias == 0.9  # the newer name wins
     assert c.y_vels == (-0.3, -0.1, 0.1, -0.3) and c.sim_period == pytest.approx(0.1)
-    assert "Parameter acc_lim_th is deprecated. Please use the name acc_lim_theta instead." in p.warnings
-    assert "Parameter gdist_scale is deprecated. Please use the name goal_distance_bias instead." in p.warnings
-    assert not any("pdist_scale" in w for w in p.warnings)
-    assert tp.BACKUP_VEL_WARNING in p.warnings and tp.METER_SCORING_FALSE in p.warnings
-    assert any(w.startswith("You are using acc_limit_x where you should be using acc_lim_x") for w in p.warnings)
-    assert p.ignored == ["some_unknown"]
+    assert "Parameter acc_lim_th is deprecated. Please use the name acc_lim_theta instead." in p.notes
+    assert "Parameter gdist_scale is deprecated. Please use the name goal_distance_bias instead." in p.notes
+    assert not any("pdist_scale" in w for w in p.notes)
+    assert tp.BACKUP_VEL_WARNING in p.notes and tp.METER_SCORING_FALSE in p.notes
+    assert any(w.startswith("You are using acc_limit_x where you should be using acc_lim_x") for w in p.notes)
+    assert [n.param for n in p.notes if n.kind == UNREAD] == ["some_unknown"]
     known = tp.TrajectoryPlanner.KNOWN_PARAMS
     assert {"acc_lim_th", "backup_vel", "world_model", "point_grid", "acc_limit_th"} <= known
 
 
 def test_controller_frequency_in_the_namespace_wins():
-    cfg, _, _ = tp.trajectory_planner_config({"controller_frequency": 5.0}, controller_frequency=10.0)
+    cfg, _ = tp.trajectory_planner_config({"controller_frequency": 5.0}, controller_frequency=10.0)
     assert cfg.sim_period == pytest.approx(0.2)
-    cfg, warnings, _ = tp.trajectory_planner_config({"controller_frequency": -1.0, "escape_vel": 0.1,
+    cfg, warnings = tp.trajectory_planner_config({"controller_frequency": -1.0, "escape_vel": 0.1,
                                                      "vx_samples": 0})
     assert cfg.sim_period == 0.05 and cfg.vx_samples == 1
     assert any("controller_frequency less than 0" in w for w in warnings)

@@ -16,6 +16,7 @@ node to log once:
   RENAMED  an old name, read or not as the real node does, with nav_core's warning
   CLAMPED  a value moved to its range's bound
   INVALID  a bad value replaced by the default, where the real node does so
+  WARNING  the real node's warning about a value it keeps (made by the caller)
 
 A value of the wrong kind, or outside a range that rejects, raises ParamError (or the
 caller's error class) naming the parameter: ``where: 'name' must be ..., got ...``
@@ -28,7 +29,7 @@ from typing import Callable
 
 from summit_nav_common.params import unread_note
 
-UNREAD, RENAMED, CLAMPED, INVALID = "unread", "renamed", "clamped", "invalid"
+UNREAD, RENAMED, CLAMPED, INVALID, WARNING = "unread", "renamed", "clamped", "invalid", "warning"
 
 # nav_core's warnings (parameter_magic.h), word for word.
 RENAMED_NOT_READ = "Parameter {old} is deprecated (and will not load properly). Use {new} instead."
@@ -41,7 +42,7 @@ class ParamError(ValueError):
 
 class Note(str):
     """One thing to log about the parameters: its text, what kind of note (UNREAD, RENAMED,
-    CLAMPED, INVALID) and the parameter it is about."""
+    CLAMPED, INVALID, WARNING) and the parameter it is about."""
 
     def __new__(cls, kind, param, text):
         note = super().__new__(cls, text)

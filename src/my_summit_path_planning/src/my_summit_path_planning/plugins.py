@@ -98,7 +98,8 @@ def _dwa_planner(params, ctx, where):
 LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS", _dwa_planner, limits=dwa_limits)
 def _trajectory_planner(params, ctx, where):
     from .trajectory_planner import TrajectoryPlanner   # numba: loaded only when chosen
-    return TrajectoryPlanner.from_params(params, ctx.footprint, where, controller_frequency=ctx.controller_frequency)
+    return TrajectoryPlanner.from_params(params, ctx.footprint, where, controller_frequency=ctx.controller_frequency,
+                                         note_where=f"~{where}")
 
 
 LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS", _trajectory_planner,

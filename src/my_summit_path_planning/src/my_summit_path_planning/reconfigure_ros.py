@@ -116,7 +116,7 @@ class TrajectoryReconfigure(_Callback):
 
     def _config(self, params):
         from my_summit_path_planning.trajectory_planner import trajectory_planner_config   # only when chosen
-        cfg, _warnings, _ignored = trajectory_planner_config(
+        cfg, _notes = trajectory_planner_config(
             params, self.node.plugins.local_name, self.node.plugins.ctx.controller_frequency)
         return cfg
 

@@ -85,7 +85,6 @@ breadth-first queue (``_wavefront``). ``generate_trajectory_reference``,
 literal per-trajectory loops and queue, kept as the test oracle (TrajectoryPlanner(...,
 reference=True) runs on the first two).
 """
-import dataclasses
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -96,7 +95,7 @@ from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORM
 from .footprint_cost import (COLLIDES, OFF_MAP, _outline_cost, _outline_costs, _vertex_cells, bresenham,
                              footprint_cost_reference, world_to_cells)
 from .local_plan import DWAResult, HeldPlan
-from .params import ParamError
+from .param_reader import WARNING, Note, ParamError, Schema
 from summit_nav_common.geometry import inverse, transform_points, wrap_angle
 from summit_nav_common.jit import njit
 
@@ -159,8 +158,8 @@ class TrajectoryPlannerConfig:
         return self.sim_granularity if self.angular_sim_granularity is None else self.angular_sim_granularity
 
 
-# Deprecated name -> current name; the real node's warning (nav_core's
-# loadParameterWithDeprecation, or its own text for backup_vel).
+# Deprecated name -> current name, read when the current one is unset with nav_core's
+# warning (loadParameterWithDeprecation); backup_vel with the real node's own text.
 DEPRECATED = {
     "pdist_scale": "path_distance_bias",
     "gdist_scale": "goal_distance_bias",
@@ -180,107 +179,68 @@ METER_SCORING_UNSET = ("Trajectory Rollout planner initialized with param meter_
 METER_SCORING_FALSE = ("Trajectory Rollout planner initialized with param meter_scoring set to false. Set it "
                        "to true to make your settings robust against changes of costmap resolution.")
 
-_FIELDS = {f.name: f for f in dataclasses.fields(TrajectoryPlannerConfig)}
-KNOWN_PARAMS = frozenset(_FIELDS) | frozenset(DEPRECATED) | frozenset(MISSPELLED) | frozenset(ACCEPTED_UNUSED)
+
+def _misspelled_warning(old):
+    return (f"You are using {old} where you should be using {MISSPELLED[old]}. Please change your "
+            "configuration files appropriately. The documentation used to be wrong on this, "
+            "sorry for any confusion.")
 
 
-def _typed(where, key, value, kind):
-    """value checked against kind ('float', 'int', 'bool', 'y_vels'); ParamError naming where/key."""
-    if kind == "float":
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ParamError(f"{where}/{key}: expected a finite float, got {value!r}")
-        return float(value)
-    if kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ParamError(f"{where}/{key}: expected an int, got {value!r}")
-        return value
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise ParamError(f"{where}/{key}: expected a bool, got {value!r}")
-        return value
-    # y_vels: a list of numbers, or the real node's string form "[-0.3, -0.1, 0.1, 0.3]"
-    items = value
-    if isinstance(value, str):
-        items = [t for t in value.replace("[", " ").replace("]", " ").replace(",", " ").split()]
-        try:
-            items = [float(t) for t in items]
-        except ValueError:
-            raise ParamError(f"{where}/{key}: expected a list of floats, got {value!r}") from None
-    if not isinstance(items, (list, tuple)) or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in items):
-        raise ParamError(f"{where}/{key}: expected a list of floats, got {value!r}")
-    return tuple(float(v) for v in items)
+def _no_samples_warning(dim, name):
+    return (f"You've specified that you don't want any samples in the {dim} dimension. We'll at "
+            f"least assume that you want to sample one value... so we're going to set {name} to 1 instead")
 
 
-_KIND = {name: ("y_vels" if name == "y_vels" else
-                "float" if name == "angular_sim_granularity" else f.type if isinstance(f.type, str)
-                else f.type.__name__) for name, f in _FIELDS.items()}
+def _schema():
+    fields = {new: dict(old=((old, BACKUP_VEL_WARNING),) if old == "backup_vel" else (old,))
+              for old, new in DEPRECATED.items()}
+    fields["acc_lim_theta"]["renamed"] = (("acc_limit_th", _misspelled_warning("acc_limit_th")),)
+    for name in ("acc_lim_x", "acc_lim_y"):
+        fields[name] = dict(renamed=((f"acc_limit_{name[-1]}", _misspelled_warning(f"acc_limit_{name[-1]}")),))
+    for name in ("acc_lim_x", "acc_lim_y", "acc_lim_theta", "xy_goal_tolerance", "yaw_goal_tolerance"):
+        fields[name] = dict(fields.get(name, {}), lo=0)
+    for name in ("sim_time", "sim_granularity", "angular_sim_granularity"):
+        fields[name] = dict(lo=0, lo_open=True)
+    for name, dim in (("vx_samples", "x"), ("vtheta_samples", "theta")):
+        fields[name] = dict(lo=1, clamp=True, note=_no_samples_warning(dim, name))
+    return Schema.of(TrajectoryPlannerConfig, accepted=ACCEPTED_UNUSED, **fields)
 
 
-def trajectory_planner_config(params, where="TrajectoryPlannerROS", controller_frequency=None):
-    """(TrajectoryPlannerConfig, warnings, ignored) from a TrajectoryPlannerROS dict.
+SCHEMA = _schema()
+KNOWN_PARAMS = frozenset(SCHEMA.known)
+
+
+def trajectory_planner_config(params, where="TrajectoryPlannerROS", controller_frequency=None, note_where=None):
+    """(TrajectoryPlannerConfig, notes) from a TrajectoryPlannerROS dict (SCHEMA).
 
     controller_frequency [Hz]: move_base's, used when the namespace has none (the real
-    node searches upward for it). warnings: the real node's texts for deprecated and
-    misspelled names and doubtful values; ignored: names this planner does not know
-    (the caller logs them once). ParamError on a value of the wrong type or range.
+    node searches upward for it). notes (param_reader Notes): the real node's texts for
+    deprecated and misspelled names and doubtful values, and the names this planner does
+    not know (prefixed with note_where, default where), for the caller to log once.
+    ParamError on a value of the wrong type or range.
     """
-    if params is None:
-        params = {}
-    if not isinstance(params, dict):
-        raise ParamError(f"{where}: expected a mapping of parameters, got {params!r}")
-    warnings, kwargs = [], {}
-    for key, value in params.items():
-        if key in _FIELDS:
-            kwargs[key] = _typed(where, key, value, _KIND[key])
-    for old, new in DEPRECATED.items():
-        if old not in params:
-            continue
-        value = _typed(where, old, params[old], "float")
-        if old == "backup_vel":
-            warnings.append(BACKUP_VEL_WARNING)
-        elif new not in params:
-            warnings.append(f"Parameter {old} is deprecated. Please use the name {new} instead.")
-        if new not in params:  # the current name wins when both are set
-            kwargs[new] = value
-            if old == "max_rotational_vel" and "min_vel_theta" not in params:
-                kwargs["min_vel_theta"] = -value
-    for old, new in MISSPELLED.items():
-        if old in params:
-            warnings.append(f"You are using {old} where you should be using {new}. Please change your "
-                            "configuration files appropriately. The documentation used to be wrong on this, "
-                            "sorry for any confusion.")
-    if "world_model" in params and params["world_model"] != "costmap":
+    r = SCHEMA.read(params, where, note_where)
+    params, values, notes = params or {}, r.values, r.notes
+    if "max_rotational_vel" in params and "max_vel_theta" not in params and "min_vel_theta" not in params:
+        values["min_vel_theta"] = -values["max_vel_theta"]
+    if params.get("world_model", "costmap") != "costmap":
         raise ParamError(f"{where}/world_model: only 'costmap' is supported, got {params['world_model']!r}")
-    if "controller_frequency" not in kwargs and controller_frequency is not None:
-        kwargs["controller_frequency"] = _typed(where, "controller_frequency", controller_frequency, "float")
-    cfg = TrajectoryPlannerConfig(**kwargs)
+    if "controller_frequency" not in r.given and controller_frequency is not None:
+        values["controller_frequency"] = SCHEMA.read({"controller_frequency": controller_frequency},
+                                                     where)["controller_frequency"]
+    cfg = TrajectoryPlannerConfig(**values)
     if "meter_scoring" not in params:
-        warnings.append(METER_SCORING_UNSET)
+        notes.append(Note(WARNING, "meter_scoring", METER_SCORING_UNSET))
     elif not cfg.meter_scoring:
-        warnings.append(METER_SCORING_FALSE)
+        notes.append(Note(WARNING, "meter_scoring", METER_SCORING_FALSE))
     if cfg.controller_frequency <= 0:
-        warnings.append("A controller_frequency less than 0 has been set. Ignoring the parameter, "
-                        "assuming a rate of 20Hz")
+        notes.append(Note(WARNING, "controller_frequency", "A controller_frequency less than 0 has been set. "
+                          "Ignoring the parameter, assuming a rate of 20Hz"))
     if cfg.escape_vel >= 0.0:
-        warnings.append("You've specified a positive escape velocity. This is probably not what you want and "
-                        "will cause the robot to move forward instead of backward. You should probably change "
-                        "your escape_vel parameter to be negative")
-    for k, n in (("vx_samples", "x"), ("vtheta_samples", "theta")):
-        if getattr(cfg, k) <= 0:
-            warnings.append(f"You've specified that you don't want any samples in the {n} dimension. We'll at "
-                            f"least assume that you want to sample one value... so we're going to set {k} to 1 "
-                            "instead")
-            setattr(cfg, k, 1)
-    for k in ("sim_time", "sim_granularity", "angular_granularity"):
-        if not getattr(cfg, k) > 0:
-            raise ParamError(f"{where}/{k.replace('angular_granularity', 'angular_sim_granularity')}: "
-                             f"must be > 0, got {getattr(cfg, k)}")
-    for k in ("acc_lim_x", "acc_lim_y", "acc_lim_theta", "xy_goal_tolerance", "yaw_goal_tolerance"):
-        if getattr(cfg, k) < 0:
-            raise ParamError(f"{where}/{k}: must be >= 0, got {getattr(cfg, k)}")
-    ignored = sorted(k for k in params if k not in KNOWN_PARAMS)
-    return cfg, warnings, ignored
+        notes.append(Note(WARNING, "escape_vel", "You've specified a positive escape velocity. This is probably "
+                          "not what you want and will cause the robot to move forward instead of backward. You "
+                          "should probably change your escape_vel parameter to be negative"))
+    return cfg, notes
 
 
 def _outline_cells(costmap, polygon, pose):
@@ -797,8 +757,7 @@ class TrajectoryPlanner(HeldPlan):
         self._grid_fn = map_grid_reference if reference else map_grid
         if not reference:
             warm_up()
-        self.warnings = []     # the real node's warnings about the parameters, for the caller to log
-        self.ignored = []      # parameter names the planner does not know
+        self.notes = []        # param_reader Notes about its parameters, for the caller to log once
         self.plan = None
         self.goal_yaw = 0.0
         self.xy_latched = False
@@ -816,12 +775,13 @@ class TrajectoryPlanner(HeldPlan):
         self.grids = None      # the last cycle's Grids (debugging, tests)
 
     @classmethod
-    def from_params(cls, params, footprint, where="TrajectoryPlannerROS", controller_frequency=None):
+    def from_params(cls, params, footprint, where="TrajectoryPlannerROS", controller_frequency=None,
+                    note_where=None):
         """A planner from the TrajectoryPlannerROS parameter dict (see trajectory_planner_config);
-        its .warnings and .ignored say what the caller should log once."""
-        cfg, warnings, ignored = trajectory_planner_config(params, where, controller_frequency)
+        its .notes say what the caller should log once."""
+        cfg, notes = trajectory_planner_config(params, where, controller_frequency, note_where)
         planner = cls(cfg, footprint)
-        planner.warnings, planner.ignored = warnings, ignored
+        planner.notes = notes
         return planner
 
     # -- nav_core interface ------------------------------------------------------------
