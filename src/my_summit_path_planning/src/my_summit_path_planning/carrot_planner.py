@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from .global_plan import PlanResult
-from .params import ParamError
+from .param_reader import FLOAT, Field, Schema
 from .footprint_cost import footprint_cost_reference, footprint_costs
 from summit_nav_common.geometry import wrap_angle
 
@@ -40,7 +40,10 @@ def _carrot_scales():
 
 
 SCALES = _carrot_scales()
-KNOWN_PARAMS = ("step_size", "min_dist_from_robot")
+# the real planner's two parameters [m] (read, unused)
+SCHEMA = Schema([Field("step_size", FLOAT, None, optional=True, what="a finite number [m]"),
+                 Field("min_dist_from_robot", FLOAT, 0.10, what="a finite number [m]")])
+KNOWN_PARAMS = tuple(SCHEMA.known)
 NO_TARGET = "The carrot planner could not find a valid plan for this goal"
 
 
@@ -58,21 +61,15 @@ class CarrotPlanner:
         self.footprint = footprint
         self.step_size = step_size
         self.min_dist_from_robot = min_dist_from_robot
+        self.notes = []   # param_reader Notes about its parameters
 
     @classmethod
-    def from_params(cls, params, footprint, where="CarrotPlanner"):
-        """From the ~CarrotPlanner namespace; ParamError on a value that is not a number;
-        .unknown_params: the names it does not read."""
-        params = dict(params or {})
-        values = {}
-        for name in KNOWN_PARAMS:
-            if name in params:
-                v = params[name]
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                    raise ParamError(f"{where}: '{name}' must be a finite number [m], got {v!r}")
-                values[name] = float(v)
-        planner = cls(footprint, **values)
-        planner.unknown_params = tuple(sorted(str(k) for k in params if k not in KNOWN_PARAMS))
+    def from_params(cls, params, footprint, where="CarrotPlanner", note_where=None):
+        """From the ~CarrotPlanner namespace (SCHEMA); ParamError on a value that is not a
+        number; .notes: the names it does not read (prefixed with note_where, default where)."""
+        r = SCHEMA.read(params, where, note_where)
+        planner = cls(footprint, **r.values)
+        planner.notes = r.notes
         return planner
 
     def targets(self, start, goal):

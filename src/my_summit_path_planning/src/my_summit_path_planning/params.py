@@ -122,11 +122,11 @@ DWA_SCHEMA = Schema.of(DWAConfig, **_DWA_FIELDS)
 NAVFN_SCHEMA = Schema.of(NavfnConfig, default_tolerance=dict(lo=0.0))
 
 
-def dwa_config(params, where="DWAPlannerROS", notes=None):
+def dwa_config(params, where="DWAPlannerROS", notes=None, note_where=None):
     """DWAConfig from the DWAPlannerROS dict, checked. notes (a list): the real node's
-    warning for each renamed name (not read), one per other name it does not read,
-    sample counts raised to 1."""
-    r = DWA_SCHEMA.read(params, where)
+    warning for each renamed name (not read), one per other name it does not read
+    (prefixed with note_where, default where), sample counts raised to 1."""
+    r = DWA_SCHEMA.read(params, where, note_where)
     if notes is not None:
         notes += r.notes
     cfg = DWAConfig(**r.values)
@@ -135,10 +135,10 @@ def dwa_config(params, where="DWAPlannerROS", notes=None):
     return cfg
 
 
-def navfn_config(params, where="NavfnROS", notes=None):
+def navfn_config(params, where="NavfnROS", notes=None, note_where=None):
     """NavfnConfig from the NavfnROS dict, checked; notes (a list): one warning per name
-    it does not read."""
-    r = NAVFN_SCHEMA.read(params, where)
+    it does not read (prefixed with note_where, default where)."""
+    r = NAVFN_SCHEMA.read(params, where, note_where)
     if notes is not None:
         notes += r.notes
     return NavfnConfig(**r.values)

@@ -28,6 +28,7 @@ from .nav_core import PluginContext, PluginError, Registry, namespace_of, read_l
 from .navfn import NavFn
 from summit_nav_common.params import unread_note
 
+from .param_reader import WARNING, Note
 from .params import dwa_config, navfn_config
 
 GLOBAL_PLANNERS = Registry("base_global_planner")
@@ -58,10 +59,10 @@ def trajectory_planner_limits(params):
 
 # -- planners ---------------------------------------------------------------------------------
 def _navfn(params, ctx, where):
-    """NavFn from its namespace; .warnings: the names it does not read."""
+    """NavFn from its namespace; .notes: the names it does not read."""
     notes = []
-    planner = NavFn(navfn_config(params, where, notes))
-    planner.warnings = notes
+    planner = NavFn(navfn_config(params, where, notes, note_where=f"~{where}"))
+    planner.notes = notes
     return planner
 
 
@@ -72,7 +73,7 @@ def _global_planner(params, ctx, where):
 
 def _carrot_planner(params, ctx, where):
     from .carrot_planner import CarrotPlanner
-    return CarrotPlanner.from_params(params, ctx.footprint, where)
+    return CarrotPlanner.from_params(params, ctx.footprint, where, f"~{where}")
 
 
 GLOBAL_PLANNERS.register("navfn/NavfnROS", _navfn)
@@ -80,18 +81,18 @@ GLOBAL_PLANNERS.register("global_planner/GlobalPlanner", _global_planner)
 GLOBAL_PLANNERS.register("carrot_planner/CarrotPlanner", _carrot_planner)
 
 def _dwa_planner(params, ctx, where):
-    """DWAPlanner from its namespace; .warnings names what dwa_local_planner does that it
-    does not (move_base logs them once)."""
+    """DWAPlanner from its namespace; .notes: its parameters' notes and what
+    dwa_local_planner does that it does not (move_base logs them once)."""
     notes = []
-    cfg = dwa_config(params, where, notes)
+    cfg = dwa_config(params, where, notes, note_where=f"~{where}")
     planner = DWAPlanner(cfg, ctx.footprint)
-    planner.warnings = notes + [
-        f"~{where}: footprint speed scaling is not implemented: scaling_speed {cfg.scaling_speed} and "
+    planner.notes = notes + [Note(
+        WARNING, "max_scaling_factor", f"~{where}: footprint speed scaling is not implemented: scaling_speed {cfg.scaling_speed} and "
         f"max_scaling_factor {cfg.max_scaling_factor} are ignored (dwa_local_planner checks the footprint "
-        f"scaled up to x{1 + cfg.max_scaling_factor:g} at max_vel_trans); the footprint is checked at its size"]
+        f"scaled up to x{1 + cfg.max_scaling_factor:g} at max_vel_trans); the footprint is checked at its size")]
     if not cfg.use_dwa:
-        planner.warnings.append(f"~{where}/use_dwa false is ignored: this planner always samples the "
-                                f"dynamic window")
+        planner.notes.append(Note(WARNING, "use_dwa", f"~{where}/use_dwa false is ignored: this planner always "
+                                                      f"samples the dynamic window"))
     return planner
 
 
@@ -259,14 +260,11 @@ def planner_context(footprint, local_type, local_params, global_costmap=None, lo
                          planner_params=planner_params)
 
 
-def plugin_notes(name, planner):
-    """A planner's deprecation warnings, and one line per parameter of its namespace it does
-    not read, with the nearest name it reads (the planners record both when built from
-    their parameters; NavfnROS and DWAPlannerROS put the second kind in their warnings)."""
-    unused = sorted(set(getattr(planner, "ignored", ())) | set(getattr(planner, "unknown_params", ())))
-    known = getattr(planner, "KNOWN_PARAMS", ())
-    return list(getattr(planner, "notes", ())) + list(getattr(planner, "warnings", ())) \
-        + [unread_note(f"~{name}", k, known) for k in unused]
+def plugin_notes(planner):
+    """What a plugin says about its parameters (nav_core: ``notes``, param_reader Notes:
+    names it does not read, old names, clamped values, the real node's warnings); a
+    plugin built without parameters has none."""
+    return list(getattr(planner, "notes", ()))
 
 
 class MoveBasePlugins:
@@ -297,8 +295,7 @@ class MoveBasePlugins:
         self.global_planner = self.make_global_planner()
         self.local_planner = self.make_local_planner()
         # What the planners say about their parameters, for the node to log once.
-        self.notes = (plugin_notes(self.global_name, self.global_planner)
-                      + plugin_notes(self.local_name, self.local_planner))
+        self.notes = plugin_notes(self.global_planner) + plugin_notes(self.local_planner)
         self.recovery_error = ""
         self.recoveries = None
         if mb.recovery_behaviors is not None:
@@ -314,7 +311,7 @@ class MoveBasePlugins:
         for name, beh in self.recoveries:
             if id(beh) not in seen:
                 seen.add(id(beh))
-                self.notes += list(getattr(beh, "notes", ()))
+                self.notes += plugin_notes(beh)
 
     def make_global_planner(self):
         return GLOBAL_PLANNERS.create(self.global_type, self.global_params, self.ctx, self.global_name)
