@@ -12,12 +12,15 @@ Each kind has one small shape (the Protocols below). A Registry maps type string
 factories ``factory(params, ctx, where) -> plugin``: params is the dict of the plugin's
 own namespace ({} when it is missing: every parameter takes its default, as in the real
 move_base), ctx a PluginContext of collaborators (costmaps, footprint), where the
-namespace's name for error messages. The registrations themselves are in
+namespace's name for error messages. A factory reads its namespace with a
+param_reader.Schema and leaves what it has to say about it (names it does not read, old
+names, clamped values) in the plugin's ``notes``, which move_base logs once; a plugin
+without ``notes`` has nothing to say. The registrations themselves are in
 my_summit_path_planning.plugins. An unknown type is a PluginError naming the known ones,
 as pluginlib's; a type whose module is not in this build says so.
 """
 from dataclasses import dataclass, field
-from typing import Callable, Dict, Optional, Protocol, Sequence, Tuple
+from typing import Callable, Dict, Optional, Protocol
 
 from .params import ParamError
 
@@ -167,15 +170,3 @@ def namespace_of(type_name):
     """The parameter namespace move_base gives a planner: the type's class part
     ("navfn/NavfnROS" -> "NavfnROS")."""
     return type_name.split("/")[-1]
-
-
-def read_limits(params, names: Sequence[Tuple[str, Sequence[str], float]]):
-    """{key: value} from a planner's params: for each (key, [names in order], default) the
-    first name present (current name first, then deprecated ones), else the default."""
-    out = {}
-    for key, candidates, default in names:
-        value = next((params[n] for n in candidates if n in params), default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise PluginError(f"'{candidates[0]}' must be float, got {value!r}")
-        out[key] = float(value)
-    return out

@@ -95,6 +95,11 @@ def _list(v):
     return v
 
 
+def _str_list(v):
+    _check(isinstance(v, list) and all(isinstance(x, str) for x in v))
+    return v
+
+
 def _float_list(v):
     """A list of finite numbers, or its string form "[-0.3, -0.1, 0.1]" (dynamic_reconfigure's)."""
     items = v
@@ -112,6 +117,7 @@ INT = Kind("int", _int)
 FLOAT = Kind("float", _float)
 STR = Kind("str", _str)
 LIST = Kind("a list", _list)
+STR_LIST = Kind("a list of strings", _str_list)
 FLOAT_LIST = Kind("a list of floats", _float_list)
 ANY = Kind("anything", lambda v: v)
 

@@ -24,11 +24,9 @@ import inspect
 
 from . import recovery
 from .dwa import DWAPlanner
-from .nav_core import PluginContext, PluginError, Registry, namespace_of, read_limits
+from .nav_core import PluginContext, PluginError, Registry, namespace_of
 from .navfn import NavFn
-from summit_nav_common.params import unread_note
-
-from .param_reader import WARNING, Note
+from .param_reader import ANY, BOOL, FLOAT, STR, STR_LIST, WARNING, Field, Note, Schema
 from .params import dwa_config, navfn_config
 
 GLOBAL_PLANNERS = Registry("base_global_planner")
@@ -45,16 +43,24 @@ def dwa_limits(params):
                 acc_lim_x=cfg.acc_lim_x)
 
 
+TRAJECTORY_LIMITS = Schema([   # TrajectoryPlannerROS's limits, by its names, the deprecated ones after
+    Field("acc_lim_theta", FLOAT, 3.2, old=("acc_lim_th",)),                        # [rad/s^2]
+    Field("max_vel_theta", FLOAT, 1.0, old=("max_rotational_vel",)),                # [rad/s]
+    Field("min_in_place_vel_theta", FLOAT, 0.4, old=("min_in_place_rotational_vel",)),  # [rad/s]
+    Field("yaw_goal_tolerance", FLOAT, 0.05),                                        # [rad]
+    Field("acc_lim_x", FLOAT, 2.5),                                                  # [m/s^2]
+])
+
+
 def trajectory_planner_limits(params):
     """TrajectoryPlannerROS's limits, read as rotate_recovery reads them (its names, the
-    deprecated ones after, base_local_planner's defaults)."""
-    return read_limits(params, [
-        ("acc_lim_th", ("acc_lim_theta", "acc_lim_th"), 3.2),                       # [rad/s^2]
-        ("max_rotational_vel", ("max_vel_theta", "max_rotational_vel"), 1.0),       # [rad/s]
-        ("min_in_place_rotational_vel", ("min_in_place_vel_theta", "min_in_place_rotational_vel"), 0.4),
-        ("yaw_goal_tolerance", ("yaw_goal_tolerance",), 0.05),                      # [rad]
-        ("acc_lim_x", ("acc_lim_x",), 2.5),                                          # [m/s^2]
-    ])
+    deprecated ones after, base_local_planner's defaults); the planner itself reports its
+    parameters' notes."""
+    r = TRAJECTORY_LIMITS.read({k: v for k, v in (params or {}).items() if k in TRAJECTORY_LIMITS.known},
+                               "TrajectoryPlannerROS", error=PluginError)
+    return dict(acc_lim_th=r["acc_lim_theta"], max_rotational_vel=r["max_vel_theta"],
+                min_in_place_rotational_vel=r["min_in_place_vel_theta"], yaw_goal_tolerance=r["yaw_goal_tolerance"],
+                acc_lim_x=r["acc_lim_x"])
 
 
 # -- planners ---------------------------------------------------------------------------------
@@ -108,37 +114,35 @@ LOCAL_PLANNERS.register("base_local_planner/TrajectoryPlannerROS", _trajectory_p
 
 
 # -- recovery behaviours ------------------------------------------------------------------------
-def _param(params, name, kind, default, where):
-    value = params.pop(name, default)
-    ok = isinstance(value, kind) and not (kind is not bool and isinstance(value, bool))
-    if not ok:
-        expected = {float: "float", bool: "bool", (int, float): "a number"}.get(
-            kind, getattr(kind, "__name__", str(kind)))
-        raise PluginError(f"{where}: '{name}' must be {expected}, got {value!r}")
-    return value
+NUMBER = dict(kind=FLOAT, what="a number")   # the recoveries' words for a float
+CLEAR_SCHEMA = Schema([                       # clear_costmap_recovery's parameters
+    Field("reset_distance", default=3.0, **NUMBER),                                  # [m]
+    Field("layer_names", STR_LIST, factory=lambda: list(recovery.DEFAULT_LAYER_NAMES)),
+    Field("force_clear_all", BOOL, False),
+    Field("invert_area_to_clear", BOOL, False),
+    Field("force_updating", BOOL, False),
+    # the real node's warning for another value, and its fallback
+    Field("affected_maps", ANY, "both", choices=recovery.AFFECTED_MAPS, fallback=True,
+          note="~{where}/affected_maps: Wrong value for affected_maps parameter: '{value}'; valid values are "
+               "'local', 'global' or 'both'; defaulting to 'both'"),
+])
+SLOW_SCHEMA = Schema([                        # move_slow_and_clear's parameters
+    Field("clearing_distance", default=0.5, lo=0.0, **NUMBER),                       # [m]
+    Field("limited_trans_speed", default=0.25, lo=0.0, **NUMBER),                    # [m/s]
+    Field("limited_rot_speed", default=0.45, lo=0.0, **NUMBER),                      # [rad/s]
+    Field("limited_distance", default=0.3, lo=0.0, **NUMBER),                        # [m]
+    Field("max_trans_param_name", STR, "max_trans_vel"),
+    Field("max_rot_param_name", STR, "max_rot_vel"),
+    Field("planner_namespace", STR, "DWAPlannerROS"),
+])
 
 
 def _clear_costmap(params, ctx, where):
-    reset = float(_param(params, "reset_distance", (int, float), 3.0, where))          # [m]
-    names = _param(params, "layer_names", list, list(recovery.DEFAULT_LAYER_NAMES), where)
-    if not all(isinstance(n, str) for n in names):
-        raise PluginError(f"{where}: 'layer_names' must be a list of strings, got {names!r}")
-    force = _param(params, "force_clear_all", bool, False, where)
-    invert = _param(params, "invert_area_to_clear", bool, False, where)
-    force_updating = _param(params, "force_updating", bool, False, where)
-    affected = params.pop("affected_maps", "both")
-    notes = []
-    if affected not in recovery.AFFECTED_MAPS:
-        # the real node's warning, and its fallback
-        notes.append(f"~{where}/affected_maps: Wrong value for affected_maps parameter: '{affected}'; "
-                     f"valid values are 'local', 'global' or 'both'; defaulting to 'both'")
-        affected = "both"
-    beh = recovery.ClearCostmapRecovery(ctx.global_costmap, ctx.local_costmap, reset, tuple(names), force,
-                                        invert, affected, force_updating)
-    read = ("reset_distance", "layer_names", "force_clear_all", "invert_area_to_clear", "affected_maps",
-            "force_updating")
-    beh.notes = notes + [unread_note(f"~{where}", k, read) for k in sorted(params)] \
-        + [f"~{where}: {n}" for n in beh.clearing_notes()]
+    r = CLEAR_SCHEMA.read(params, where, f"~{where}", error=PluginError)
+    beh = recovery.ClearCostmapRecovery(ctx.global_costmap, ctx.local_costmap, r["reset_distance"],
+                                        tuple(r["layer_names"]), r["force_clear_all"], r["invert_area_to_clear"],
+                                        r["affected_maps"], r["force_updating"])
+    beh.notes = r.notes + [f"~{where}: {n}" for n in beh.clearing_notes()]
     return beh
 
 
@@ -149,36 +153,31 @@ def _rotate_kwargs(ctx):
                                        "yaw_goal_tolerance") if k in lim})
 
 
-SLOW_PARAMS = (("clearing_distance", (int, float), 0.5), ("limited_trans_speed", (int, float), 0.25),
-               ("limited_rot_speed", (int, float), 0.45), ("limited_distance", (int, float), 0.3),
-               ("max_trans_param_name", str, "max_trans_vel"), ("max_rot_param_name", str, "max_rot_vel"),
-               ("planner_namespace", str, "DWAPlannerROS"))
-
-
 def _move_slow_and_clear(params, ctx, where):
     """move_slow_and_clear from ~<name> (its names and defaults); .notes: the names it
     does not read and the costmaps where it would clear nothing."""
-    values = {name: _param(params, name, kind, default, where) for name, kind, default in SLOW_PARAMS}
-    for name in ("clearing_distance", "limited_trans_speed", "limited_rot_speed", "limited_distance"):
-        if not values[name] >= 0.0:
-            raise PluginError(f"{where}: '{name}' must be >= 0, got {values[name]!r}")
-    beh = recovery.MoveSlowAndClear(ctx.global_costmap, ctx.local_costmap, ctx.planner_params, **values)
-    known = [n for n, _, _ in SLOW_PARAMS]
-    beh.notes = [unread_note(f"~{where}", k, known) for k in sorted(params)] + beh.clearing_notes()
+    r = SLOW_SCHEMA.read(params, where, f"~{where}", error=PluginError)
+    beh = recovery.MoveSlowAndClear(ctx.global_costmap, ctx.local_costmap, ctx.planner_params, **r.values)
+    beh.notes = r.notes + beh.clearing_notes()
     return beh
 
 
 RECOVERY_BEHAVIORS.register(recovery.CLEAR_TYPE, _clear_costmap)
 RECOVERY_BEHAVIORS.register(recovery.SLOW_TYPE, _move_slow_and_clear)
+
+
 def _behaviour(cls, defaults):
     """A factory for a recovery class taking the footprint and keyword parameters: its
-    namespace's names the class takes, over defaults(ctx); every other name is noted and
-    left unread, as the real recovery behaviours leave what they do not read."""
-    known = [n for n in inspect.signature(cls).parameters if n != "footprint"]
+    namespace's names the class takes (a schema of its signature; the class checks the
+    values), over defaults(ctx); every other name is noted and left unread, as the real
+    recovery behaviours leave what they do not read."""
+    schema = Schema([Field(n, ANY, p.default) for n, p in inspect.signature(cls).parameters.items()
+                     if n != "footprint"])
 
     def factory(params, ctx, where):
-        beh = cls(ctx.footprint, **{**defaults(ctx), **{k: v for k, v in params.items() if k in known}})
-        beh.notes = [unread_note(f"~{where}", k, known) for k in sorted(params) if k not in known]
+        r = schema.read(params, where, f"~{where}", error=PluginError)
+        beh = cls(ctx.footprint, **{**defaults(ctx), **{k: r[k] for k in r.given}})
+        beh.notes = r.notes
         return beh
     return factory
 
