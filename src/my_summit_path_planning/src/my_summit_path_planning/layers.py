@@ -17,13 +17,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from summit_nav_common.grid_kernels import distance_transform
+from summit_nav_common.grid_kernels import distance_transform, fill_rays
 from summit_nav_common.line_cells import line_cells, line_cells_reference
-from summit_nav_common.params import unread_notes
 
 from .cost_values import (FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE,
                           NO_INFORMATION)
 from .costmap import CostmapError, Costmap2D, Layer, expand_bounds
+from .param_reader import BOOL, FLOAT, STR, WARNING, Field, Kind, Note, Schema
 
 # Plugin type strings (costmap_2d YAML) and the short names some configs use.
 STATIC_TYPES = ("costmap_2d::StaticLayer",)
@@ -32,20 +32,22 @@ VOXEL_TYPES = ("costmap_2d::VoxelLayer",)
 INFLATION_TYPES = ("costmap_2d::InflationLayer",)
 
 
-def _number(params, key, default, where, minimum=None):
-    v = params.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise CostmapError(f"{where}: '{key}' must be a finite number, got {v!r}")
-    if minimum is not None and v < minimum:
-        raise CostmapError(f"{where}: '{key}' must be >= {minimum}, got {v!r}")
-    return float(v)
+def _read(schema, params, name, what):
+    """schema.read of a layer's namespace: errors name the layer (CostmapError), notes say
+    what it is ("static layer 'name'")."""
+    return schema.read(params, name, f"{what} layer '{name}'", error=CostmapError)
 
 
-def _flag(params, key, default, where):
-    v = params.get(key, default)
-    if not isinstance(v, bool):
-        raise CostmapError(f"{where}: '{key}' must be true or false, got {v!r}")
-    return v
+SPACED_NAMES = Kind("a space-separated string", STR.check)    # observation_sources' form
+# costmap_2d's voxel grid packs a column into 16 bits: at most 16 voxels
+Z_VOXELS = Kind("an integer in [0, 16]", lambda v: _whole_in(v, 0, 16))
+
+
+def _whole_in(v, lo, hi):
+    v = FLOAT.check(v)
+    if v != int(v) or not lo <= v <= hi:
+        raise ValueError("")
+    return int(v)
 
 
 # ---------------------------------------------------------------------------------------
@@ -60,24 +62,27 @@ class StaticLayer(Layer):
     (read by the node), enabled.
     """
 
-    PARAMS = ("enabled", "map_topic", "first_map_only", "subscribe_to_updates",
-              "track_unknown_space", "use_maximum", "lethal_cost_threshold",
-              "unknown_cost_value", "trinary_costmap")
+    SCHEMA = Schema([
+        Field("enabled", BOOL, True), Field("map_topic", STR, "map"),
+        Field("first_map_only", BOOL, False), Field("subscribe_to_updates", BOOL, False),
+        Field("track_unknown_space", BOOL, True), Field("use_maximum", BOOL, False),
+        Field("lethal_cost_threshold", FLOAT, 100, lo=0), Field("unknown_cost_value", FLOAT, -1),
+        Field("trinary_costmap", BOOL, True)])
+    PARAMS = tuple(SCHEMA.fields)
 
     def __init__(self, name, params=None):
         super().__init__(name)
-        params = dict(params or {})
-        where = f"static layer '{name}'"
-        self.notes += unread_notes(where, params, self.PARAMS)
-        self.enabled = _flag(params, "enabled", True, where)
-        self.track_unknown_space = _flag(params, "track_unknown_space", True, where)
-        self.use_maximum = _flag(params, "use_maximum", False, where)
-        self.trinary_costmap = _flag(params, "trinary_costmap", True, where)
-        self.lethal_cost_threshold = int(_number(params, "lethal_cost_threshold", 100, where, 0))
-        self.unknown_cost_value = int(_number(params, "unknown_cost_value", -1, where))
-        self.map_topic = str(params.get("map_topic", "map"))
-        self.first_map_only = _flag(params, "first_map_only", False, where)
-        self.subscribe_to_updates = _flag(params, "subscribe_to_updates", False, where)
+        r = _read(self.SCHEMA, params, name, "static")
+        self.notes += r.notes
+        self.enabled = r["enabled"]
+        self.track_unknown_space = r["track_unknown_space"]
+        self.use_maximum = r["use_maximum"]
+        self.trinary_costmap = r["trinary_costmap"]
+        self.lethal_cost_threshold = int(r["lethal_cost_threshold"])
+        self.unknown_cost_value = int(r["unknown_cost_value"])
+        self.map_topic = r["map_topic"]
+        self.first_map_only = r["first_map_only"]
+        self.subscribe_to_updates = r["subscribe_to_updates"]
         self.grid = None          # Costmap2D of static costs
         self._dirty = False
 
@@ -298,7 +303,8 @@ def ray_cells_continuous(x0, y0, x1, y1):
 
     Coordinates in cells (cell (i, j) covers [i, i+1) x [j, j+1)). Samples every
     1/SUPERSAMPLE cell along the dominant axis; returns (ray index, cx, cy) (M,) each,
-    with repeats.
+    with repeats. The obstacle layer clears with summit_nav_common.grid_kernels.fill_rays,
+    which samples the same points; this is its oracle.
     """
     x1 = np.asarray(x1, dtype=np.float64)
     y1 = np.asarray(y1, dtype=np.float64)
@@ -369,57 +375,54 @@ class ObstacleLayer(Layer):
     within obstacle_range (costmap_2d's order, so a fresh hit survives the clearing).
     """
 
-    PARAMS = ("enabled", "observation_sources", "obstacle_range", "raytrace_range",
-              "max_obstacle_height", "min_obstacle_height", "track_unknown_space",
-              "footprint_clearing_enabled", "combination_method", "inf_is_valid")
-    SOURCE_PARAMS = ("topic", "sensor_frame", "data_type", "marking", "clearing",
-                     "obstacle_range", "raytrace_range", "inf_is_valid",
-                     "expected_update_rate", "observation_persistence",
-                     "min_obstacle_height", "max_obstacle_height", "clear_on_max_reading")
+    SCHEMA = Schema([
+        Field("enabled", BOOL, True), Field("observation_sources", SPACED_NAMES, ""),
+        Field("obstacle_range", FLOAT, 2.5, lo=0.0), Field("raytrace_range", FLOAT, 3.0, lo=0.0),   # [m]
+        Field("max_obstacle_height", FLOAT, 2.0),                                                    # [m]
+        # None: the costmap's track_unknown_space, known at initialize (as costmap_2d)
+        Field("track_unknown_space", BOOL, None, optional=True),
+        Field("footprint_clearing_enabled", BOOL, True), Field("combination_method", FLOAT, 1)],
+        accepted=("min_obstacle_height", "inf_is_valid"))   # costmap_2d's, read by no layer here
+    PARAMS = tuple(SCHEMA.known)
+    SOURCE_ACCEPTED = ("clear_on_max_reading",)
+
+    @staticmethod
+    def source_schema(name, obstacle_range, raytrace_range):
+        """An observation source's parameters; its ranges default to the layer's [m]."""
+        return Schema([
+            Field("topic", STR, name), Field("sensor_frame", STR, ""),
+            Field("data_type", STR, "PointCloud", choices=("LaserScan", "PointCloud", "PointCloud2")),
+            Field("marking", BOOL, True), Field("clearing", BOOL, False),
+            Field("obstacle_range", FLOAT, obstacle_range, lo=0.0), Field("raytrace_range", FLOAT, raytrace_range, lo=0.0),
+            Field("inf_is_valid", BOOL, False),
+            Field("expected_update_rate", FLOAT, 0.0, lo=0.0), Field("observation_persistence", FLOAT, 0.0, lo=0.0),
+            Field("min_obstacle_height", FLOAT, 0.0), Field("max_obstacle_height", FLOAT, 2.0)],
+            accepted=ObstacleLayer.SOURCE_ACCEPTED)
 
     def __init__(self, name, params=None):
         super().__init__(name)
         params = dict(params or {})
-        where = f"obstacle layer '{name}'"
-        sources_txt = params.get("observation_sources", "")
-        if not isinstance(sources_txt, str):
-            raise CostmapError(f"{where}: 'observation_sources' must be a space-separated string")
-        self.source_names = sources_txt.split()
-        allowed = set(self.PARAMS) | set(self.source_names)
-        self.notes += unread_notes(where, params, allowed)
-        self.enabled = _flag(params, "enabled", True, where)
-        self.obstacle_range = _number(params, "obstacle_range", 2.5, where, 0.0)
-        self.raytrace_range = _number(params, "raytrace_range", 3.0, where, 0.0)
-        self.max_obstacle_height = _number(params, "max_obstacle_height", 2.0, where)
-        # None: the costmap's track_unknown_space, known at initialize (as costmap_2d).
-        self.track_unknown_space = (_flag(params, "track_unknown_space", False, where)
-                                    if "track_unknown_space" in params else None)
-        self.footprint_clearing_enabled = _flag(params, "footprint_clearing_enabled", True, where)
-        self.combination_method = int(_number(params, "combination_method", 1, where))
+        sources = params.get("observation_sources", "")
+        r = _read(self.SCHEMA, {k: v for k, v in params.items()
+                                if not (isinstance(sources, str) and k in sources.split())}, name, "obstacle")
+        self.notes += r.notes
+        self.source_names = r["observation_sources"].split()
+        self.enabled = r["enabled"]
+        self.obstacle_range = r["obstacle_range"]
+        self.raytrace_range = r["raytrace_range"]
+        self.max_obstacle_height = r["max_obstacle_height"]
+        self.track_unknown_space = r["track_unknown_space"]
+        self.footprint_clearing_enabled = r["footprint_clearing_enabled"]
+        self.combination_method = int(r["combination_method"])
         self.sources = {}
         for s in self.source_names:
             sp = params.get(s, {})
             if not isinstance(sp, dict):
-                raise CostmapError(f"{where}: source '{s}' must be a dict of parameters")
-            self.notes += unread_notes(f"{where} source '{s}'", sp, self.SOURCE_PARAMS)
-            dt = sp.get("data_type", "PointCloud")   # costmap_2d's default
-            if dt not in ("LaserScan", "PointCloud", "PointCloud2"):
-                raise CostmapError(f"{where} source '{s}': data_type must be LaserScan, "
-                                   f"PointCloud or PointCloud2, got {dt!r}")
-            self.sources[s] = {
-                "name": s,
-                "topic": sp.get("topic", s), "sensor_frame": sp.get("sensor_frame", ""),
-                "data_type": dt,
-                "marking": _flag(sp, "marking", True, f"{where} source '{s}'"),
-                "clearing": _flag(sp, "clearing", False, f"{where} source '{s}'"),
-                "obstacle_range": _number(sp, "obstacle_range", self.obstacle_range, where, 0.0),
-                "raytrace_range": _number(sp, "raytrace_range", self.raytrace_range, where, 0.0),
-                "inf_is_valid": _flag(sp, "inf_is_valid", False, f"{where} source '{s}'"),
-                "expected_update_rate": _number(sp, "expected_update_rate", 0.0, where, 0.0),
-                "observation_persistence": _number(sp, "observation_persistence", 0.0, where, 0.0),
-                "min_obstacle_height": _number(sp, "min_obstacle_height", 0.0, where),
-                "max_obstacle_height": _number(sp, "max_obstacle_height", 2.0, where),
-            }
+                raise CostmapError(f"obstacle layer '{name}': source '{s}' must be a dict of parameters")
+            src = self.source_schema(s, self.obstacle_range, self.raytrace_range).read(
+                sp, f"{name}/{s}", f"obstacle layer '{name}' source '{s}'", error=CostmapError)
+            self.notes += src.notes
+            self.sources[s] = dict(src.values, name=s)
         self.grid = None
         self._pending = []
         self._footprint_xy = None
@@ -515,10 +518,10 @@ class ObstacleLayer(Layer):
         # of a hit that lies on a ray is crossed by the clearing of that ray.
         gx0 = (ox - g.origin_x) / g.resolution
         gy0 = (oy - g.origin_y) / g.resolution
-        ray, cx, cy = ray_cells_continuous(gx0, gy0, (ends[:, 0] - g.origin_x) / g.resolution,
-                                           (ends[:, 1] - g.origin_y) / g.resolution)
-        inside = (cx >= 0) & (cy >= 0) & (cx < g.size_x) & (cy < g.size_y)
-        g.data[cy[inside], cx[inside]] = FREE_SPACE
+        # (compiled: ray_cells_continuous, its oracle, lays out every ray's cells at once,
+        # several MB per scan, which was move_base's peak memory)
+        fill_rays(g.data, gx0, gy0, (ends[:, 0] - g.origin_x) / g.resolution,
+                  (ends[:, 1] - g.origin_y) / g.resolution, SUPERSAMPLE, FREE_SPACE)
         r = o.raytrace_range
         return expand_bounds(bounds, ox - r, oy - r, ox + r, oy + r)
 
@@ -599,17 +602,18 @@ class InflationLayer(Layer):
     cells get nothing.
     """
 
-    PARAMS = ("enabled", "inflation_radius", "cost_scaling_factor", "inflate_unknown")
+    SCHEMA = Schema([Field("enabled", BOOL, True), Field("inflation_radius", FLOAT, 0.55, lo=0.0),   # [m]
+                     Field("cost_scaling_factor", FLOAT, 10.0, lo=0.0), Field("inflate_unknown", BOOL, False)])
+    PARAMS = tuple(SCHEMA.fields)
 
     def __init__(self, name, params=None):
         super().__init__(name)
-        params = dict(params or {})
-        where = f"inflation layer '{name}'"
-        self.notes += unread_notes(where, params, self.PARAMS)
-        self.enabled = _flag(params, "enabled", True, where)
-        self.inflation_radius = _number(params, "inflation_radius", 0.55, where, 0.0)
-        self.cost_scaling_factor = _number(params, "cost_scaling_factor", 10.0, where, 0.0)
-        self.inflate_unknown = _flag(params, "inflate_unknown", False, where)
+        r = _read(self.SCHEMA, params, name, "inflation")
+        self.notes += r.notes
+        self.enabled = r["enabled"]
+        self.inflation_radius = r["inflation_radius"]
+        self.cost_scaling_factor = r["cost_scaling_factor"]
+        self.inflate_unknown = r["inflate_unknown"]
 
     def cell_inflation_radius(self, resolution):
         """[cells] costmap_2d's cellDistance(inflation_radius)."""
@@ -667,29 +671,22 @@ class VoxelLayer(ObstacleLayer):
     passing above a low obstacle leaves it marked there, not here).
     """
 
-    VOXEL_PARAMS = ("origin_z", "z_resolution", "z_voxels", "unknown_threshold", "mark_threshold",
-                    "publish_voxel_map")
+    VOXEL_SCHEMA = Schema([
+        Field("origin_z", FLOAT, 0.0), Field("z_resolution", FLOAT, 0.2, lo=0, lo_open=True),   # [m]
+        Field("z_voxels", Z_VOXELS, 10),
+        Field("unknown_threshold", FLOAT, 0, lo=0), Field("mark_threshold", FLOAT, 0, lo=0),
+        Field("publish_voxel_map", BOOL, False)])
+    VOXEL_PARAMS = tuple(VOXEL_SCHEMA.fields)
     IGNORED_2D = ("unknown_threshold", "mark_threshold", "publish_voxel_map")
     PARAMS = ObstacleLayer.PARAMS + VOXEL_PARAMS
-    MAX_Z_VOXELS = 16  # costmap_2d's voxel grid packs a column into 16 bits
 
     def __init__(self, name, params=None):
         params = dict(params or {})
-        where = f"voxel layer '{name}'"
-        self.origin_z = _number(params, "origin_z", 0.0, where)
-        self.z_resolution = _number(params, "z_resolution", 0.2, where)
-        if not self.z_resolution > 0:
-            raise CostmapError(f"{where}: 'z_resolution' must be > 0 [m], got {self.z_resolution}")
-        z_voxels = _number(params, "z_voxels", 10, where, 0)
-        if z_voxels != int(z_voxels) or z_voxels > self.MAX_Z_VOXELS:
-            raise CostmapError(f"{where}: 'z_voxels' must be an integer in [0, {self.MAX_Z_VOXELS}], "
-                               f"got {params.get('z_voxels')!r}")
-        self.z_voxels = int(z_voxels)
-        for key in ("unknown_threshold", "mark_threshold"):
-            _number(params, key, 0, where, 0)
-        _flag(params, "publish_voxel_map", False, where)
+        r = self.VOXEL_SCHEMA.read({k: v for k, v in params.items() if k in self.VOXEL_PARAMS}, name,
+                                   error=CostmapError)
+        self.origin_z, self.z_resolution, self.z_voxels = r["origin_z"], r["z_resolution"], r["z_voxels"]
         super().__init__(name, {k: v for k, v in params.items() if k not in self.VOXEL_PARAMS})
-        self.notes += [f"voxel layer '{name}': '{k}' has no meaning for a 2D costmap; ignored"
+        self.notes += [Note(WARNING, k, f"voxel layer '{name}': '{k}' has no meaning for a 2D costmap; ignored")
                        for k in self.IGNORED_2D if k in params]
 
     @property
