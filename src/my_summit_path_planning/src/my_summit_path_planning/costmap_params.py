@@ -24,6 +24,7 @@ what is still at the top level into the layers of the matching type, overriding 
 layer's own value, as copyParentParameters does. Everything here works on plain dicts:
 no ROS.
 """
+from .param_reader import RENAMED, UNREAD, Note
 
 STATIC_LAYER = "static_layer"
 OBSTACLE_LAYER = "obstacle_layer"
@@ -168,23 +169,23 @@ def copy_parent_params(plugins, params):
 def to_plugin_layout(params):
     """A costmap namespace in either layout -> (namespace with ``plugins``, notes).
 
-    notes: the warnings costmap_2d gives for this namespace (without the costmap's
-    name): PRE_HYDRO_WARNING for the pre-Hydro layout, OLD_PARAM_WARNING for a
+    notes: param_reader Notes, the warnings costmap_2d gives for this namespace (without
+    the costmap's name): PRE_HYDRO_WARNING for the pre-Hydro layout, OLD_PARAM_WARNING for a
     pre-Hydro flag next to ``plugins``, and one note per top-level layer key that no
     layer takes (ignored).
     """
     params = dict(params or {})
     notes = []
     if is_pre_hydro(params):
-        notes.append(PRE_HYDRO_WARNING)
+        notes.append(Note(RENAMED, "plugins", PRE_HYDRO_WARNING))
         own = {k: params[k] for k in COSTMAP_OWN if k in params}
         plugins, params = pre_hydro_to_plugins(params)
         params["plugins"] = plugins
         params.update(own)  # Costmap2DROS reads these before loadOldParameters moves them
     else:
-        notes += [OLD_PARAM_WARNING.format(k) for k in PRE_HYDRO_FLAGS if k in params]
+        notes += [Note(UNREAD, k, OLD_PARAM_WARNING.format(k)) for k in PRE_HYDRO_FLAGS if k in params]
     plugins = params["plugins"] if isinstance(params["plugins"], list) else []
     params, unused = copy_parent_params([p for p in plugins if isinstance(p, dict)], params)
-    notes += [f"parameter '{k}' at the costmap's top level is read by no layer of this "
-              f"costmap; ignored" for k in unused]
+    notes += [Note(UNREAD, k, f"parameter '{k}' at the costmap's top level is read by no layer of this "
+                              f"costmap; ignored") for k in unused]
     return params, notes
