@@ -183,14 +183,16 @@ def read_tracks(bag, topics):
 
 def filter_counts(fused_bag):
     """The node's last /diagnostics values whose key is a topic (ours: "received N,
-    fused N, rejected N, dropped N"); {} for a node that says no such thing."""
+    fused N, rejected N, dropped N") or "lagged measurements"; {} for a node that says no
+    such thing."""
     import rosbag
     last = {}
     with rosbag.Bag(fused_bag) as b:
         for _, msg, _ in b.read_messages(topics=["/diagnostics"]):
             for st in msg.status:
                 if st.name.endswith(": Filter"):
-                    last = {kv.key: kv.value for kv in st.values if kv.key.startswith("/")}
+                    last = {kv.key: kv.value for kv in st.values
+                            if kv.key.startswith("/") or kv.key == "lagged measurements"}
     return last
 
 

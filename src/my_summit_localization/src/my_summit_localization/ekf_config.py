@@ -9,6 +9,7 @@ documented on its wiki and in its params/ekf_template.yaml):
   map_frame map, odom_frame odom, base_link_frame base_link, world_frame = odom_frame;
   publish_tf true; publish_acceleration false; print_diagnostics true; predict_to_current_time false;
   transform_time_offset 0 [s], transform_timeout 0 [s]; gravitational_acceleration 9.80665;
+  smooth_lagged_data false, history_length 0 [s];
   process_noise_covariance: diagonal 0.05 0.05 0.06 0.03 0.03 0.06 0.025 0.025 0.04 0.01
   0.01 0.02 0.01 0.01 0.015 (per second); initial_estimate_covariance: diagonal 1e-9.
   Sensors odomN, imuN, poseN, twistN, N = 0, 1, ... counted until the first missing one,
@@ -20,7 +21,7 @@ documented on its wiki and in its params/ekf_template.yaml):
   imuN_remove_gravitational_acceleration (false).
 
 Parameters robot_localization has but this node does not implement (use_control,
-smooth_lagged_data, dynamic_process_noise_covariance, ...) raise ConfigError when turned
+dynamic_process_noise_covariance, ...) raise ConfigError when turned
 on, so a configuration is never silently run differently.
 """
 import math
@@ -43,10 +44,10 @@ THRESHOLDS = {"pose_rejection_threshold": (("odom", "pose", "imu"), "pose_thresh
               "angular_velocity_rejection_threshold": (("imu",), "angular_velocity_threshold"),
               "linear_acceleration_rejection_threshold": (("imu",), "linear_acceleration_threshold")}
 # robot_localization features this node does not have: name -> the value that is harmless
-UNSUPPORTED = {"use_control": False, "smooth_lagged_data": False, "dynamic_process_noise_covariance": False,
+UNSUPPORTED = {"use_control": False, "dynamic_process_noise_covariance": False,
                "reset_on_time_jump": False, "disabled_at_startup": False}
 # robot_localization parameters read and accepted without effect here (debug output)
-IGNORED = ("debug", "debug_out_file", "history_length", "permit_corrected_publication", "silent_tf_failure",
+IGNORED = ("debug", "debug_out_file", "permit_corrected_publication", "silent_tf_failure",
            "control_config", "control_timeout", "stamped_control",
            "acceleration_limits", "deceleration_limits", "acceleration_gains", "deceleration_gains",
            "base_link_frame_output")
@@ -83,6 +84,8 @@ class EkfConfig:
     transform_time_offset: float = 0.0   # [s] added to the tf's stamp
     transform_timeout: float = 0.0       # [s] how long a tf lookup waits
     predict_to_current_time: bool = False   # publish the state predicted to now, not to the last measurement
+    smooth_lagged_data: bool = False     # a lagged measurement: go back and fuse again in stamp order
+    history_length: float = 0.0          # [s] of filter history kept for smooth_lagged_data
     gravitational_acceleration: float = STANDARD_GRAVITY   # [m/s^2]
     process_noise_covariance: np.ndarray = None     # (15, 15) per second
     initial_estimate_covariance: np.ndarray = None  # (15, 15)
@@ -208,6 +211,11 @@ def read_config(params):
     c.publish_acceleration = _bool(params, "publish_acceleration", False)
     c.print_diagnostics = _bool(params, "print_diagnostics", True)
     c.predict_to_current_time = _bool(params, "predict_to_current_time", False)
+    c.smooth_lagged_data = _bool(params, "smooth_lagged_data", False)
+    c.history_length = _float(params, "history_length", 0.0, nonnegative=True)
+    if c.smooth_lagged_data and c.history_length == 0.0:
+        c.warnings.append("smooth_lagged_data is true but history_length is 0 s: no history is kept, so lagged "
+                          "measurements are fused as without smoothing")
     c.transform_time_offset = _float(params, "transform_time_offset", 0.0)
     c.transform_timeout = _float(params, "transform_timeout", 0.0, nonnegative=True)
     c.gravitational_acceleration = _float(params, "gravitational_acceleration", STANDARD_GRAVITY)
@@ -242,7 +250,8 @@ def known_names(params):
     names = {"frequency", "sensor_timeout", "two_d_mode", "map_frame", "odom_frame", "base_link_frame",
              "world_frame", "publish_tf", "publish_acceleration", "print_diagnostics", "transform_time_offset",
              "transform_timeout", "gravitational_acceleration", "process_noise_covariance",
-             "initial_estimate_covariance", "diagnostic_period", "predict_to_current_time"} | set(UNSUPPORTED) | set(IGNORED)
+             "initial_estimate_covariance", "diagnostic_period", "predict_to_current_time",
+             "smooth_lagged_data", "history_length"} | set(UNSUPPORTED) | set(IGNORED)
     for key in params:
         m = SENSOR_KEY.match(str(key))
         if m and not m.group(3):

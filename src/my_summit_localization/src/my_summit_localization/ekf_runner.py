@@ -15,8 +15,15 @@ it predicts to now. What the node must say is returned as text, never raised:
     (robot_localization predicts its filter itself; here the filter stays at its last
     measurement, so measurements that arrive late are still fused in stamp order);
   - a configured topic that has not published for `silent_after` [s] since the start is
-    named once (the filter runs on the others).
+    named once (the filter runs on the others);
+  - a measurement stamped before the filter's time (lagged: it arrived after
+    measurements stamped later were fused) is corrected without prediction, as
+    robot_localization does by default; with `smooth_lagged_data` (robot_localization's
+    parameter, history kept for `history_length` [s]) the filter is reverted to its state
+    before the earliest lagged measurement and every measurement from there on is fused
+    again in stamp order, so the result is what in-order arrival would have given.
 """
+import collections
 import heapq
 import itertools
 import math
@@ -39,7 +46,7 @@ class EkfRunner:
     def __init__(self, config, topics=(), silent_after=SILENT_AFTER):
         self.config = config
         self.ekf = Ekf(config.process_noise_covariance, config.initial_estimate_covariance, config.two_d_mode)
-        self.queue = []                  # heap of (stamp, seq, Measurement)
+        self.queue = []                  # heap of (stamp, seq, Measurement, fused before a revert)
         self._seq = itertools.count()
         self.last_stamp = {t: None for t in topics}   # topic -> stamp [s] of its latest accepted message
         self.counts = {t: {"received": 0, "fused": 0, "rejected": 0, "dropped": 0} for t in topics}
@@ -48,6 +55,13 @@ class EkfRunner:
         self.warned_silent = set()
         self.last_update = None          # [s] ROS time of the last measurement fused
         self.output = None               # (x, P, time) predicted past the filter after sensor_timeout
+        # smooth_lagged_data: per fused measurement, in fusing order, (stamp, seq, measurement,
+        # the filter before it: x, P, time, initialized); history_length [s] of it kept
+        self.smooth = config.smooth_lagged_data
+        self.history_length = config.history_length
+        self.history = collections.deque()
+        self.reverts = 0                 # cycles in which the filter went back for lagged measurements
+        self.lagged = 0                  # cycles whose lagged measurements were fused where the filter was
 
     def _count(self, topic, key):
         self.counts.setdefault(topic, {"received": 0, "fused": 0, "rejected": 0, "dropped": 0})[key] += 1
@@ -75,7 +89,7 @@ class EkfRunner:
             return why
         self.last_stamp[topic] = stamp
         for m in measurements:
-            heapq.heappush(self.queue, (m.stamp, next(self._seq), m))
+            heapq.heappush(self.queue, (m.stamp, next(self._seq), m, False))
         return None
 
     def update(self, now):
@@ -86,10 +100,23 @@ class EkfRunner:
             self.start = now
         rejected = []
         fused_any = False
+        ekf = self.ekf
+        if self.queue and ekf.initialized and self.queue[0][0] < ekf.time and self.queue[0][0] <= now:
+            if self.smooth and self._revert(self.queue[0][0]):
+                self.reverts += 1
+            else:
+                self.lagged += 1
+                # fused where the filter is: its history is no longer in stamp order, so
+                # it starts again from here
+                self.history.clear()
         while self.queue and self.queue[0][0] <= now:
-            _, _, m = heapq.heappop(self.queue)
-            outcome = self.ekf.process(m)
+            stamp, seq, m, again = heapq.heappop(self.queue)
+            if self.smooth:
+                self.history.append((stamp, seq, m, ekf.x.copy(), ekf.P.copy(), ekf.time, ekf.initialized))
+            outcome = ekf.process(m)
             fused_any = True
+            if again:        # fused once more after a revert: counted the first time
+                continue
             if outcome.accepted:
                 self._count(m.source, "fused")
             else:
@@ -98,6 +125,10 @@ class EkfRunner:
         if fused_any:
             self.last_update = now
             self.output = None
+            if self.smooth:
+                keep_from = ekf.time - self.history_length
+                while self.history and self.history[0][0] < keep_from:
+                    self.history.popleft()
         elif self.ekf.initialized and self.last_update is not None \
                 and now - self.last_update >= self.config.sensor_timeout:
             # Output predicted to now, the filter itself left at its last measurement: the
@@ -106,6 +137,26 @@ class EkfRunner:
             # applied to a state already moved on with a stale turn rate.
             self.output = self.ekf.predicted(now)
         return rejected
+
+    def _revert(self, stamp):
+        """smooth_lagged_data: the filter back to its state before the first fused
+        measurement stamped after `stamp` [s], and the measurements fused since queued
+        again (with their order kept). False when the history does not reach back to
+        stamp (the lagged measurement is then fused as without smoothing)."""
+        h = self.history
+        if not h or (h[0][0] > stamp and not (h[0][5] is not None and h[0][5] <= stamp)):
+            return False
+        k = len(h)
+        while k > 0 and h[k - 1][0] > stamp:   # the lag is short: search from the newest
+            k -= 1
+        if k == len(h):
+            return False                        # nothing fused after stamp (the filter only predicted past it)
+        _, _, _, x, p, t, initialized = h[k]
+        self.ekf.x, self.ekf.P, self.ekf.time, self.ekf.initialized = x, p, t, initialized
+        while len(h) > k:
+            st, seq, m = h.pop()[:3]
+            heapq.heappush(self.queue, (st, seq, m, True))
+        return True
 
     def state(self):
         """(x, P, time) to publish: the filter's, or its prediction after sensor_timeout
@@ -141,6 +192,7 @@ class EkfRunner:
         self.ekf.reset(x, p, stamp)
         self.output = None
         self.queue.clear()
+        self.history.clear()
         for s in sensors:
             s.reset()
         self.last_update = stamp
@@ -163,8 +215,10 @@ def not_finite(m: Measurement):
 def status_check(r: EkfRunner, now):
     """The node's /diagnostics status "Filter": WARN while no measurement has come or a
     configured topic has been silent since the start (after silent_after [s]), else OK;
-    per topic its messages received / fused / rejected / dropped."""
-    values = [("filter time", fmt(r.ekf.time if r.ekf.time is not None else "none"))]
+    per topic its messages received / fused / rejected / dropped; the lagged measurements."""
+    values = [("filter time", fmt(r.ekf.time if r.ekf.time is not None else "none")),
+              ("lagged measurements", f"{r.reverts} times gone back to fuse in stamp order (smooth_lagged_data), "
+                                      f"{r.lagged} times fused where the filter was")]
     for topic, c in sorted(r.counts.items()):
         values.append((topic, f"received {c['received']}, fused {c['fused']}, rejected {c['rejected']}, "
                               f"dropped {c['dropped']}"))
