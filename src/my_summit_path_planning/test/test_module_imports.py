@@ -4,8 +4,8 @@ A planner module (one file per nav_core plugin: dwa, trajectory_planner, navfn,
 global_planner, carrot_planner) imports no other planner's module: what two planners
 share lives in a module named for what it holds (local_plan, latency, clearance,
 oscillation, goal_rotation, footprint_cost, global_plan). The pure package imports no
-rospy (reconfigure_ros aside, until it moves into the ros subpackage); the shared
-modules import no planner.
+rospy: the ROS side lives in its ros subpackage (costmap_ros, sensor_hub, reconfigure),
+which no pure module imports; the shared modules import no planner.
 """
 import ast
 import os
@@ -15,7 +15,8 @@ import pytest
 PKG = os.path.join(os.path.dirname(__file__), "..", "src", "my_summit_path_planning")
 PLANNERS = {"dwa", "trajectory_planner", "navfn", "global_planner", "carrot_planner"}
 SHARED = {"local_plan", "latency", "clearance", "oscillation", "goal_rotation", "footprint_cost", "global_plan"}
-ROS_ALLOWED = {"reconfigure_ros"}
+ROS = {"rospy", "dynamic_reconfigure", "tf2_ros", "actionlib"}
+ROS_SUBPACKAGE = "ros"
 
 
 def package_imports(module):
@@ -40,6 +41,7 @@ def package_imports(module):
 
 
 def top_imports(module):
+    """The top-level names of every module `module` (a path under the package, no .py) imports."""
     tree = ast.parse(open(os.path.join(PKG, module + ".py")).read())
     names = set()
     for node in ast.walk(tree):
@@ -69,19 +71,34 @@ def test_shared_modules_import_no_planner(module):
     assert not package_imports(module) & PLANNERS
 
 
-@pytest.mark.parametrize("module", sorted(set(modules()) - ROS_ALLOWED))
+def ros_modules():
+    folder = os.path.join(PKG, ROS_SUBPACKAGE)
+    return sorted(f"{ROS_SUBPACKAGE}/{f[:-3]}" for f in os.listdir(folder) if f.endswith(".py"))
+
+
+@pytest.mark.parametrize("module", modules())
 def test_the_pure_package_imports_no_rospy(module):
-    assert not top_imports(module) & {"rospy", "dynamic_reconfigure", "tf2_ros", "actionlib"}
+    assert not top_imports(module) & ROS
 
 
-def test_only_the_listed_modules_import_ros():
-    """reconfigure_ros is the one ROS module left in the pure package (issue 43 moves it
-    into a ros subpackage); the list must name only modules that exist and do import ROS."""
-    for module in ROS_ALLOWED:
-        assert module in modules()
-        assert top_imports(module) & {"rospy", "dynamic_reconfigure", "tf2_ros", "actionlib"}
+@pytest.mark.parametrize("module", modules())
+def test_no_pure_module_imports_the_ros_subpackage(module):
+    assert ROS_SUBPACKAGE not in package_imports(module)
+
+
+def test_the_ros_side_is_in_the_ros_subpackage():
+    """costmap_ros, sensor_hub and reconfigure import ROS and live in ros/; the check sees them."""
+    mods = ros_modules()
+    assert {"ros/costmap_ros", "ros/sensor_hub", "ros/reconfigure"} <= set(mods)
+    assert all(top_imports(m) & ROS for m in ("ros/costmap_ros", "ros/sensor_hub", "ros/reconfigure"))
+    assert not top_imports("ros/__init__") & ROS      # importing the subpackage loads nothing
 
 
 def test_the_check_sees_a_planner_import():
     """The parser is not blind: plugins imports dwa (it registers the planners)."""
     assert "dwa" in package_imports("plugins") and "global_planner" in package_imports("plugins")
+
+
+def test_param_reader_imports_no_module_of_the_package():
+    """Every module reads its parameters through param_reader: it must depend on none of them."""
+    assert package_imports("param_reader") == set()

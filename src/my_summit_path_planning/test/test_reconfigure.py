@@ -1,4 +1,5 @@
-"""move_base's dynamic_reconfigure callbacks (reconfigure_ros.py) on fake move_base nodes.
+"""move_base's dynamic_reconfigure callbacks (ros/reconfigure.py) on fake move_base nodes,
+reached through their PlannerSlots as the node's are.
 
 The servers are the real StrictServer over the generated .cfg modules, with rospy's
 parameter server, publishers and services replaced by dicts and stubs (no ROS master):
@@ -23,10 +24,10 @@ import pytest
 import rospy
 
 from my_summit_path_planning import cost_values as cv
-from my_summit_path_planning import reconfigure_ros as rr
 from my_summit_path_planning import trajectory_planner as tp
 from my_summit_path_planning.costmap import Costmap2D, Footprint
 from my_summit_path_planning.global_planner import _RANGES, GlobalPlanner, GlobalPlannerConfig
+from my_summit_path_planning.ros import reconfigure as rr
 from summit_nav_common.ros.reconfigure import StrictServer
 
 SUMMIT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
@@ -71,9 +72,13 @@ def _fake_node(local_type=TPR, local_params=None, global_type=GP, global_params=
                            lcm=SimpleNamespace(layered=SimpleNamespace(layers=[])))
     if local_type == TPR:
         node.core.local_planner = _tpr(node)
+    node.planner = node.service_planner = None
     if global_type == GP:
         node.planner = GlobalPlanner.from_params(plugins.global_params)
         node.service_planner = GlobalPlanner.from_params(plugins.global_params)
+    # what the callbacks reach, as move_base builds it
+    node.slots = rr.planner_slots(plugins, node.lock, lambda: (node.planner, node.service_planner),
+                                  lambda: (node.core.local_planner,))
     return node
 
 
@@ -85,7 +90,8 @@ def _tpr(node):
 
 def _server(node, kind):
     cfg_name, callback = rr.SERVERS[kind]
-    return StrictServer(rr.config_type(cfg_name), callback(node), namespace=f"~{kind.split('/')[1]}")
+    slot = next(s for s in node.slots if s.type == kind)
+    return StrictServer(rr.config_type(cfg_name), callback(slot), namespace=f"~{kind.split('/')[1]}")
 
 
 def _corridor_cmd(planner):
@@ -234,7 +240,7 @@ def test_global_callback_refuses_what_the_planner_refuses(monkeypatch):
     """The callback alone (no server range check): the planner's own ParamError is the message."""
     ros = FakeRos(monkeypatch)
     node = _fake_node()
-    cb = rr.GlobalPlannerReconfigure(node)
+    cb = rr.GlobalPlannerReconfigure(node.slots[0])
     config = {"lethal_cost": 253, "neutral_cost": 50, "cost_factor": 3.0, "publish_potential": True,
               "orientation_mode": 1, "orientation_window_size": 1}
     cb(dict(config), 0)
@@ -252,9 +258,7 @@ def test_global_callback_refuses_what_the_planner_refuses(monkeypatch):
 def test_servers_are_chosen_by_type(monkeypatch, local, glob, expected):
     FakeRos(monkeypatch)
     node = _fake_node(local_type=local, global_type=glob)
-    if glob != GP:
-        node.planner = node.service_planner = None
-    assert sorted(s.ns for s in rr.start_servers(node)) == expected
+    assert sorted(s.ns for s in rr.start_servers(node.slots, (node.gcm, node.lcm))) == expected
 
 
 def test_cfg_files_carry_the_real_names_and_global_planner_ranges():

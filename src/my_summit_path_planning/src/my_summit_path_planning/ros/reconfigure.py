@@ -17,6 +17,12 @@ registry chooses the planners; each is served at ~<namespace> (nav_core.namespac
   (cfg/InflationPlugin.cfg, costmap_2d's): the layer's parameters change and the whole
   costmap is re-inflated on its next update.
 
+The callbacks reach move_base through PlannerSlot, a narrow interface (planner_slots
+builds the two of a move_base): the parameters the next planners of a kind are built
+from, and update(params, configure), which swaps them and reconfigures the planners
+running now under move_base's lock. The inflation callbacks reach a costmap through its
+lock and layered costmap only.
+
 The servers are summit_nav_common.ros.reconfigure.StrictServer: a value outside the .cfg's range
 is refused (logged with the valid range), not clamped. A value or combination the planner cannot
 run with (e.g. min_vel_x above max_vel_x for DWA, sim_time 0 or an unparsable y_vels for
@@ -28,14 +34,54 @@ import dataclasses
 import importlib
 import queue
 import threading
+from dataclasses import dataclass
+from typing import Callable
 
 import rospy
 from dynamic_reconfigure.msg import Config, DoubleParameter
 from dynamic_reconfigure.srv import Reconfigure
-
-from my_summit_path_planning.layers import InflationLayer
-from my_summit_path_planning.params import ParamError, dwa_config
 from summit_nav_common.ros.reconfigure import StrictServer
+
+from ..layers import InflationLayer
+from ..params import ParamError, dwa_config
+
+
+@dataclass
+class PlannerSlot:
+    """One planner kind of move_base as its reconfigure server reaches it.
+
+    type: the planner's type string; name: its namespace; params(): the namespace the
+    next planners of this kind are built from; update(params, configure): under
+    move_base's lock, make params the next planners' namespace and call configure(planner)
+    on each planner running now; controller_frequency [Hz]: move_base's."""
+
+    type: str
+    name: str
+    params: Callable
+    update: Callable
+    controller_frequency: float = 20.0
+
+
+def planner_slots(plugins, lock, running_global, running_local):
+    """(global slot, local slot) of a move_base: plugins (MoveBasePlugins: global_params,
+    local_params, the types and names, ctx.controller_frequency); lock: the lock its control
+    loop and planner thread hold; running_global() / running_local(): the planners using
+    the configuration now (None entries skipped)."""
+
+    def updater(attr, running):
+        def update(params, configure):
+            with lock:
+                setattr(plugins, attr, params)
+                for planner in running():
+                    if planner is not None:
+                        configure(planner)
+        return update
+
+    rate = plugins.ctx.controller_frequency
+    return (PlannerSlot(plugins.global_type, plugins.global_name, lambda: plugins.global_params,
+                        updater("global_params", running_global), rate),
+            PlannerSlot(plugins.local_type, plugins.local_name, lambda: plugins.local_params,
+                        updater("local_params", running_local), rate))
 
 
 class _Callback:
@@ -72,29 +118,27 @@ class _Callback:
 
 
 class DWAReconfigure(_Callback):
-    """~DWAPlannerROS: swaps the DWA configuration of the running local planner
-    (node.core.local_planner) and of the ones move_base makes for the next goals
-    (node.plugins.local_params), under node.lock."""
+    """~DWAPlannerROS: swaps the DWA configuration of the running local planner and of the
+    ones move_base makes for the next goals (slot: the local PlannerSlot)."""
 
     name = "DWAPlannerROS"
 
-    def __init__(self, node):
+    def __init__(self, slot):
         super().__init__()
-        self.node = node
-        self.startup = dwa_config(node.plugins.local_params)
+        self.slot = slot
+        self.startup = dwa_config(slot.params())
 
     def current(self):
-        return dataclasses.asdict(dwa_config(self.node.plugins.local_params))
+        return dataclasses.asdict(dwa_config(self.slot.params()))
 
     def apply(self, changes):
         new = dwa_config(dict(self.current(), **changes))   # ParamError if unusable
-        with self.node.lock:
-            self.node.plugins.local_params = dataclasses.asdict(new)   # each goal's fresh planner
-            planner = self.node.core.local_planner
-            if planner is not None:
-                planner.config = new
-                osc = planner.oscillation
-                osc.reset_dist, osc.reset_angle = new.oscillation_reset_dist, new.oscillation_reset_angle
+
+        def configure(planner):
+            planner.config = new
+            osc = planner.oscillation
+            osc.reset_dist, osc.reset_angle = new.oscillation_reset_dist, new.oscillation_reset_angle
+        self.slot.update(dataclasses.asdict(new), configure)   # and each goal's fresh planner
 
     def defaults_changes(self):
         cur, start = self.current(), dataclasses.asdict(self.startup)
@@ -103,25 +147,24 @@ class DWAReconfigure(_Callback):
 
 class TrajectoryReconfigure(_Callback):
     """~TrajectoryPlannerROS: swaps the TrajectoryPlannerConfig of the running local planner
-    (node.core.local_planner) and of the next goals' (node.plugins.local_params), under
-    node.lock. y_vels is served as the real .cfg's comma-separated string;
-    angular_sim_granularity as the step in use (sim_granularity when unset)."""
+    and of the next goals' (slot: the local PlannerSlot). y_vels is served as the real
+    .cfg's comma-separated string; angular_sim_granularity as the step in use
+    (sim_granularity when unset)."""
 
     name = "TrajectoryPlannerROS"
 
-    def __init__(self, node):
+    def __init__(self, slot):
         super().__init__()
-        self.node = node
+        self.slot = slot
         self.startup = self.current()
 
     def _config(self, params):
-        from my_summit_path_planning.trajectory_planner import trajectory_planner_config   # only when chosen
-        cfg, _notes = trajectory_planner_config(
-            params, self.node.plugins.local_name, self.node.plugins.ctx.controller_frequency)
+        from ..trajectory_planner import trajectory_planner_config   # only when chosen
+        cfg, _notes = trajectory_planner_config(params, self.slot.name, self.slot.controller_frequency)
         return cfg
 
     def current(self):
-        cfg = self._config(self.node.plugins.local_params)
+        cfg = self._config(self.slot.params())
         out = dataclasses.asdict(cfg)
         out["angular_sim_granularity"] = cfg.angular_granularity
         out["y_vels"] = ",".join(f"{v:g}" for v in cfg.y_vels)
@@ -129,14 +172,11 @@ class TrajectoryReconfigure(_Callback):
 
     def apply(self, changes):
         # the configuration in use under the current names (deprecated ones resolved), then the changes
-        params = {k: v for k, v in dataclasses.asdict(self._config(self.node.plugins.local_params)).items()
+        params = {k: v for k, v in dataclasses.asdict(self._config(self.slot.params())).items()
                   if v is not None}
         new = self._config(dict(params, **changes))   # ParamError if unusable
-        with self.node.lock:
-            self.node.plugins.local_params = {k: v for k, v in dataclasses.asdict(new).items() if v is not None}
-            planner = self.node.core.local_planner
-            if planner is not None:
-                planner.config = new
+        self.slot.update({k: v for k, v in dataclasses.asdict(new).items() if v is not None},
+                         lambda planner: setattr(planner, "config", new))
 
     def defaults_changes(self):
         cur = self.current()
@@ -144,27 +184,27 @@ class TrajectoryReconfigure(_Callback):
 
 
 class GlobalPlannerReconfigure(_Callback):
-    """~GlobalPlanner: the configuration of the planner thread's planner (node.planner),
-    ~make_plan's (node.service_planner) and later ones (node.plugins.global_params); a plan
-    already being made finishes with the values it started with."""
+    """~GlobalPlanner: the configuration of the planners running (the planner thread's and
+    ~make_plan's) and of later ones (slot: the global PlannerSlot); a plan already being
+    made finishes with the values it started with."""
 
     name = "GlobalPlanner"
 
-    def __init__(self, node):
+    def __init__(self, slot):
         super().__init__()
-        self.node = node
+        self.slot = slot
+
+    def _config(self, params):
+        from ..global_planner import GlobalPlanner   # only when chosen
+        return GlobalPlanner.from_params(params, self.slot.name).config   # ParamError if unusable
 
     def current(self):
-        return dataclasses.asdict(self.node.planner.config)
+        return dataclasses.asdict(self._config(self.slot.params()))
 
     def apply(self, changes):
-        params = dict(self.node.plugins.global_params, **changes)
-        from my_summit_path_planning.global_planner import GlobalPlanner   # only when chosen
-        new = GlobalPlanner.from_params(params, self.node.plugins.global_name).config   # ParamError if unusable
-        with self.node.lock:
-            self.node.plugins.global_params = params
-            for planner in (self.node.planner, self.node.service_planner):
-                planner.config = dataclasses.replace(new)
+        params = dict(self.slot.params(), **changes)
+        new = self._config(params)
+        self.slot.update(params, lambda planner: setattr(planner, "config", dataclasses.replace(new)))
 
 
 class InflationReconfigure(_Callback):
@@ -200,16 +240,17 @@ def config_type(cfg_name):
     return importlib.import_module(f"my_summit_path_planning.cfg.{cfg_name}Config")
 
 
-def start_servers(node):
-    """The dynamic_reconfigure servers of a move_base node (kept alive by the caller)."""
+def start_servers(slots, costmaps):
+    """The dynamic_reconfigure servers of a move_base (kept alive by the caller): one per
+    PlannerSlot whose type has one, one per inflation layer of the costmaps (each with
+    name, lock and layered)."""
     servers = []
-    pl = node.plugins
-    for kind, namespace in ((pl.global_type, pl.global_name), (pl.local_type, pl.local_name)):
-        if kind in SERVERS:
-            cfg_name, callback = SERVERS[kind]
-            servers.append(StrictServer(config_type(cfg_name), callback(node), namespace=f"~{namespace}"))
+    for slot in slots:
+        if slot.type in SERVERS:
+            cfg_name, callback = SERVERS[slot.type]
+            servers.append(StrictServer(config_type(cfg_name), callback(slot), namespace=f"~{slot.name}"))
     InflationPluginConfig = config_type("InflationPlugin")
-    for cm in (node.gcm, node.lcm):
+    for cm in costmaps:
         for layer in cm.layered.layers:
             if isinstance(layer, InflationLayer):
                 servers.append(StrictServer(InflationPluginConfig, InflationReconfigure(cm, layer),
