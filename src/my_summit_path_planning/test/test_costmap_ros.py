@@ -160,6 +160,17 @@ def test_subscribes_to_the_map_and_each_source_by_data_type(ros):
     assert cm.has_map and ros.said("loginfo", "map 100 x 100 cells at 0.050 m received on map")
 
 
+def test_a_map_that_does_not_fit_its_size_is_rejected_and_the_costmap_goes_on(ros):
+    """A map whose data is not width x height cells: once the reshape ran before the
+    callback's try, so the error escaped to rospy (a traceback, no 'rejected' message)."""
+    cm = CostmapROS("global_costmap", config(), tf_buffer(), SensorHub(stats=Stats()))
+    deliver(ros, "map", map_msg(data=np.zeros(50, np.int8)))   # 50 cells for 100 x 100
+    assert not cm.has_map and not ros.said("loginfo", "received")
+    assert ros.said("logerr", "global_costmap: map on map rejected: cannot reshape")
+    deliver(ros, "map", map_msg())
+    assert cm.has_map
+
+
 def test_robot_pose_from_tf_and_refused_when_stale_or_missing(ros, costmap):
     assert costmap.get_robot_pose() == pytest.approx((*ROBOT, 0.0))
     ros.now = NOW + 0.5                                   # the transform is 0.5 s old: over 0.3 s

@@ -101,10 +101,10 @@ class CostmapROS:
     def _on_map(self, layer, msg):
         if layer.first_map_only and layer.grid is not None:
             return
-        data = np.asarray(msg.data, dtype=np.int8).reshape(msg.info.height, msg.info.width)
         o = msg.info.origin
         with self.lock:
             try:
+                data = np.asarray(msg.data, dtype=np.int8).reshape(msg.info.height, msg.info.width)
                 layer.set_map(data, msg.info.resolution, (o.position.x, o.position.y, quaternion_to_yaw(o.orientation)))
             except Exception as e:  # noqa: BLE001 - a bad map must not kill the node
                 rospy.logerr(f"move_base: {self.name}: map on {layer.map_topic} rejected: {e}")
