@@ -74,15 +74,9 @@ class StaticLayer(Layer):
         super().__init__(name)
         r = _read(self.SCHEMA, params, name, "static")
         self.notes += r.notes
-        self.enabled = r["enabled"]
-        self.track_unknown_space = r["track_unknown_space"]
-        self.use_maximum = r["use_maximum"]
-        self.trinary_costmap = r["trinary_costmap"]
-        self.lethal_cost_threshold = int(r["lethal_cost_threshold"])
-        self.unknown_cost_value = int(r["unknown_cost_value"])
-        self.map_topic = r["map_topic"]
-        self.first_map_only = r["first_map_only"]
-        self.subscribe_to_updates = r["subscribe_to_updates"]
+        vars(self).update(r.values)   # each parameter is the attribute of its name
+        self.lethal_cost_threshold = int(self.lethal_cost_threshold)
+        self.unknown_cost_value = int(self.unknown_cost_value)
         self.grid = None          # Costmap2D of static costs
         self._dirty = False
 
@@ -406,14 +400,9 @@ class ObstacleLayer(Layer):
         r = _read(self.SCHEMA, {k: v for k, v in params.items()
                                 if not (isinstance(sources, str) and k in sources.split())}, name, "obstacle")
         self.notes += r.notes
+        vars(self).update({k: v for k, v in r.values.items() if k != "observation_sources"})
         self.source_names = r["observation_sources"].split()
-        self.enabled = r["enabled"]
-        self.obstacle_range = r["obstacle_range"]
-        self.raytrace_range = r["raytrace_range"]
-        self.max_obstacle_height = r["max_obstacle_height"]
-        self.track_unknown_space = r["track_unknown_space"]
-        self.footprint_clearing_enabled = r["footprint_clearing_enabled"]
-        self.combination_method = int(r["combination_method"])
+        self.combination_method = int(self.combination_method)
         self.sources = {}
         for s in self.source_names:
             sp = params.get(s, {})
@@ -610,10 +599,7 @@ class InflationLayer(Layer):
         super().__init__(name)
         r = _read(self.SCHEMA, params, name, "inflation")
         self.notes += r.notes
-        self.enabled = r["enabled"]
-        self.inflation_radius = r["inflation_radius"]
-        self.cost_scaling_factor = r["cost_scaling_factor"]
-        self.inflate_unknown = r["inflate_unknown"]
+        vars(self).update(r.values)   # enabled, inflation_radius [m], cost_scaling_factor, inflate_unknown
 
     def cell_inflation_radius(self, resolution):
         """[cells] costmap_2d's cellDistance(inflation_radius)."""
