@@ -24,7 +24,7 @@ from . import costmap_params
 from .costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
 from .dwa import DWAConfig
 from .navfn import NavfnConfig
-from .param_reader import ParamError, Schema
+from .param_reader import INVALID, ParamError, Schema
 
 CONFIG_FILES = ("move_base_params.yaml", "costmap_common_params.yaml",
                 "global_costmap_params.yaml", "local_costmap_params.yaml",
@@ -67,9 +67,6 @@ class MoveBaseConfig:
     debug_dump_dir: str = ""
 
 
-# move_base parameters the real node reads and this one accepts without acting on them:
-# each with the value that matches what this node does (another value is logged as ignored).
-IGNORED_MOVE_BASE_PARAMS = {"shutdown_costmaps": False}
 
 
 @dataclass
@@ -106,7 +103,11 @@ class CostmapConfig:
     notes: list = field(default_factory=list)
 
 
-MOVE_BASE_SCHEMA = Schema.of(MoveBaseConfig)
+# move_base parameters the real node reads and this one accepts without acting on them:
+# the one value that matches what this node does; another is noted as ignored (INVALID).
+MOVE_BASE_SCHEMA = Schema.of(MoveBaseConfig, shutdown_costmaps=dict(
+    choices=(False,), fallback=True, note="parameter {name} is accepted but ignored by this move_base "
+                                          "(its costmaps always run)"))
 COSTMAP_SCHEMA = Schema.of(CostmapConfig, internal=("layer_params", "notes"),
                            **{k: dict(lo=0.0, lo_open=True) for k in ("resolution", "width", "height")})
 # dwa_local_planner's dynamic_reconfigure raises a sample count below the .cfg's minimum, 1
@@ -202,8 +203,8 @@ class MoveBaseParams:
     global_costmap: CostmapConfig
     local_costmap: CostmapConfig
     namespaces: dict = field(default_factory=dict)   # {name: {param: value}}
-    ignored: tuple = ()      # parameters given a value asking for what this node does not do
-    notes: tuple = ()        # warnings about move_base's own namespace (names it does not read)
+    ignored: tuple = ()      # parameters given a value asking for what this node does not do (in notes too)
+    notes: tuple = ()        # param_reader Notes about move_base's own namespace, for the node to log once
 
     def namespace(self, name):
         """The parameters under ~name ({} when missing: the plugin's defaults)."""
@@ -243,7 +244,7 @@ def move_base_params(ns, where="move_base"):
     costmaps = {name: costmap_config(subs.pop(name, {}), f"{where}/{name}")
                 for name in ("global_costmap", "local_costmap")}
     return MoveBaseParams(move_base=mb, namespaces=subs,
-                          ignored=tuple(k for k, v in IGNORED_MOVE_BASE_PARAMS.items() if own.get(k, v) != v),
+                          ignored=tuple(n.param for n in r.notes if n.kind == INVALID),
                           notes=tuple(r.notes), **costmaps)
 
 
