@@ -8,7 +8,9 @@ import pytest
 from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D, CostmapError, Footprint, LayeredCostmap
 from my_summit_path_planning.layers import (ObstacleLayer, cells_inside_convex, cloud_to_observation,
-                                            inflation_cost, ray_cells, raytrace_reference, scan_to_observation)
+                                            inflation_cost, ray_cells, ray_cells_continuous, raytrace_reference,
+                                            scan_to_observation, SUPERSAMPLE)
+from summit_nav_common.grid_kernels import fill_rays
 
 SUMMIT_FOOTPRINT = [[0.36, 0.31], [-0.36, 0.31], [-0.36, -0.31], [0.36, -0.31]]
 
@@ -98,6 +100,32 @@ def _local(footprint, size=80, res=0.05):
     lc = LayeredCostmap.from_plugins([{"name": "obstacle_layer", "type": "costmap_2d::ObstacleLayer"}],
                                      params, Costmap2D(size, size, res), footprint, rolling_window=True)
     return lc
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_ray_clearing_sets_the_cells_of_its_numpy_oracle(seed):
+    """fill_rays (csrc/raytrace.c) replaced ray_cells_continuous in the obstacle layer's
+    clearing: the NumPy walk held several int64 arrays of every cell of 1081 rays at once,
+    move_base's largest transient (issue 43). Same cells, from origins inside and outside
+    the grid, ends off it, rays along cell boundaries, zero-length and non-finite rays."""
+    rng = np.random.default_rng(seed)
+    h, w = 60, 80
+    for x0, y0 in [(rng.uniform(0, w), rng.uniform(0, h)), (40.0, 30.0), (-5.5, 12.25), (10.0, 10.0)]:
+        ends = np.concatenate([rng.uniform(-20, 100, (300, 2)), [[x0, y0], [x0 + 7, y0], [x0, y0 - 9.0],
+                                                                 [x0 + 3, y0 + 3]]])
+        ex, ey = ends[:, 0].copy(), ends[:, 1].copy()
+        expected = np.zeros((h, w), np.uint8)
+        _, cx, cy = ray_cells_continuous(x0, y0, ex, ey)
+        inside = (cx >= 0) & (cy >= 0) & (cx < w) & (cy < h)
+        expected[cy[inside], cx[inside]] = 7
+        got = np.zeros((h, w), np.uint8)
+        fill_rays(got, x0, y0, ex, ey, SUPERSAMPLE, 7)
+        npt.assert_array_equal(got, expected)
+    grid = np.zeros((h, w), np.uint8)
+    fill_rays(grid, 5.0, 5.0, [np.nan, np.inf], [1.0, 2.0], SUPERSAMPLE, 7)
+    assert not grid.any()
+    with pytest.raises(ValueError, match="uint8"):
+        fill_rays(np.zeros((h, w), np.int16), 5.0, 5.0, [1.0], [1.0], SUPERSAMPLE, 7)
 
 
 def test_obstacle_layer_marks_and_clears(footprint):

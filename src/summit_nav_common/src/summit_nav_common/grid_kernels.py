@@ -16,6 +16,9 @@ stays a test-only import):
 - ``upsample_linear(grid, k)``: cv2.resize(grid, (w k, h k), interpolation=INTER_LINEAR).
 - ``dilate3(grid)``, ``erode3(grid)``: cv2.dilate / cv2.erode with a 3x3 square and the
   default border (cells off the grid ignored); NumPy, exact for any dtype.
+- ``fill_rays(grid, x0, y0, x1, y1, supersample, value)``: sets the cells under straight
+  rays sampled `supersample` times per cell (no OpenCV counterpart: the costmaps'
+  clearing, whose NumPy walk is its oracle; see csrc/raytrace.c).
 - ``components8(mask)``: 8-connected components of the nonzero cells (labels 1.. by
   first cell in raster order, 0 elsewhere), for what connectedComponents and floodFill
   were used for: which cells are joined.
@@ -119,3 +122,18 @@ def components8(mask):
     if h and w and library().snc_label8(mask, h, w, labels) < 0:
         raise MemoryError("components8: out of memory")
     return labels
+
+
+def fill_rays(grid, x0, y0, x1, y1, supersample, value):
+    """Set to `value`, in place, every cell of the C-contiguous uint8 (H, W) `grid` under the
+    rays from grid point (x0, y0) to the points (x1, y1) [cells; cell (i, j) covers
+    [i, i+1) x [j, j+1)], sampled at k / n of each ray, k = 0..n, n = max(1,
+    ceil(supersample x the ray's longer extent)); samples off the grid are skipped."""
+    if grid.dtype != np.uint8 or not grid.flags.c_contiguous or grid.ndim != 2:
+        raise ValueError("fill_rays: the grid must be a C-contiguous 2-D uint8 array")
+    x1 = np.ascontiguousarray(x1, dtype=np.float64).ravel()
+    y1 = np.ascontiguousarray(y1, dtype=np.float64).ravel()
+    if x1.shape != y1.shape:
+        raise ValueError(f"fill_rays: {x1.size} x ends but {y1.size} y ends")
+    h, w = grid.shape
+    library().snc_fill_rays(grid, w, h, float(x0), float(y0), x1, y1, x1.size, float(supersample), int(value))

@@ -36,6 +36,9 @@ SIGNATURES = {
     "snc_remap_bilinear": (None, [_f32, _int64, _int64, _f32, _f32, _int64, ctypes.c_float, _f32]),
     "snc_upsample_linear": (None, [_f32, _int64, _int64, _int64, _f32, _f32]),
     "snc_label8": (_int64, [_u8, _int64, _int64, _i32]),
+    # csrc/raytrace.c (the costmaps' clearing)
+    "snc_fill_rays": (None, [_u8, _int64, _int64, ctypes.c_double, ctypes.c_double, _f64, _f64, _int64,
+                             ctypes.c_double, ctypes.c_uint8]),
     # csrc/patch_grid.c (my_summit_mapping's grid and scan matcher)
     "snc_touched_patches": (None, [_int64, _i64, _i64, _int64, _int64, _int64, _int64, _u8]),
     "snc_trace_into": (None, [_f32, _int64, _i64, _int64, _int64, _int64, _i64, _i64, _f64, _u8, _int64,
