@@ -32,7 +32,10 @@ Asserts: every move_base result is SUCCEEDED; every robot ends within the tolera
 its goal by ground truth; zero collisions on every robot (walls, boxes and each other);
 with ~pass_north_of, that the robots passed each other there; with ~max_path_length,
 that no robot drove farther.
-Prints one MULTI_ROBOT line per robot (parsed by bench_multi_robot.py).
+Prints one MULTI_ROBOT line per robot (parsed by bench_multi_robot.py), and on failure
+the robots' tracks (multirobot_util.format_track: true poses and commands, global plans,
+recoveries, results), also in the failure message, so that a run that failed once can be
+read afterwards.
 """
 import math
 import threading
@@ -114,7 +117,10 @@ def send_after(goal, watches, stop, timeout_wall):
         return
     rospy.loginfo(f"{lead.name} at y {y:.2f} > {after['y_above']}: sending {goal['robot']} its goal")
     spot = goal_spot(goal["x"], goal["y"], goal["theta"])
-    client.send_goal(move_base_goal(spot, "map", rospy.Time.now()))
+    now = rospy.Time.now()
+    client.send_goal(move_base_goal(spot, "map", now))
+    next(w for w in watches if w.name == goal["robot"]).note(
+        now.to_sec(), f"goal ({goal['x']:.2f}, {goal['y']:.2f}) sent ({lead.name} at y {y:.2f})")
     stop.wait()   # the client (and its goal handle) lives until the test has judged the run
 
 
@@ -182,6 +188,10 @@ class MultiRobotGoals(unittest.TestCase):
                                 f"not both north of y {pass_north_of} (they did not meet there)")
         rospy.loginfo(f"multi-robot goals: {sim:.1f} s sim, {wall:.1f} s wall, closest approach "
                       f"{closest.min_distance:.2f} m, passed each other at {closest.passed_at}")
+        if failures:
+            track = mu.format_track(watches)
+            print(f"MULTI_ROBOT_TRACK\n{track}", flush=True)
+            failures.append(f"the tracks:\n{track}")
         self.assertEqual(failures, [], "; ".join(failures))
 
 
