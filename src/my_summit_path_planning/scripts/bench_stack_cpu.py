@@ -32,8 +32,12 @@ Issue 24's figure: map_server + amcl + move_base while navigating <= 0.6 CPU s p
 simulated s; the real C++ nodes on the same kind of scenario (the issue's reference,
 not measured here): amcl 0.094, move_base 0.41, sum 0.50.
 
+--global-planner / --local-planner run move_base with another plugin (e.g. global_planner/
+GlobalPlanner, base_local_planner/TrajectoryPlannerROS): the course's config files with
+move_base_params.yaml's base_global_planner / base_local_planner changed (config_dir:=).
+
 Usage: bench_stack_cpu.py [--runs 3] [--goals 10] [--seed 0] [--speed 1] [--json PATH]
-                          [--profile DIR]
+                          [--profile DIR] [--global-planner NAME] [--local-planner NAME]
 """
 import argparse
 import json
@@ -61,6 +65,29 @@ PASS_CLEARANCE = 0.4        # [m] cells the robot can pass through (half width 0
 MIN_STEP, MAX_STEP = 3.0, 14.0   # [m] straight line from the previous goal (the first: the spawn)
 GOAL_TIMEOUT = 120.0        # [s simulated] per goal
 START_TIMEOUT = 180.0       # [s wall] the stack up: amcl's first pose, move_base's action server
+CONFIG_DIR = os.path.join(WS, "src", "my_summit_path_planning", "config")
+
+
+def config_dir(tmp, global_planner=None, local_planner=None):
+    """The course's config folder, or (a planner named) a copy in tmp whose
+    move_base_params.yaml names that planner."""
+    if not global_planner and not local_planner:
+        return CONFIG_DIR
+    import re
+    import shutil
+    import tempfile
+    out = os.path.join(tempfile.mkdtemp(prefix="config_", dir=tmp), "config")
+    shutil.copytree(CONFIG_DIR, out)
+    path = os.path.join(out, "move_base_params.yaml")
+    text = open(path).read()
+    for key, name in (("base_global_planner", global_planner), ("base_local_planner", local_planner)):
+        if name:
+            text, n = re.subn(rf"^{key}:.*$", f"{key}: {name}", text, flags=re.M)
+            if n != 1:
+                raise RuntimeError(f"{path}: no single line '{key}:' to replace")
+    with open(path, "w") as f:
+        f.write(text)
+    return out
 
 
 def draw_goals(n, seed):
@@ -100,7 +127,8 @@ def run_once(index, args, tmp):
     goals = draw_goals(args.goals, args.seed)
     log = os.path.join(tmp, f"bench_stack_cpu_run{index}.log")
     launch = ["my_summit_path_planning", "move_base.launch", "sim:=true", f"speed:={args.speed}",
-              f"seed:={args.seed}", f"launch_prefix:={prefix}"]
+              f"seed:={args.seed}", f"launch_prefix:={prefix}",
+              f"config_dir:={config_dir(tmp, args.global_planner, args.local_planner)}"]
     with RoslaunchSession(launch, log=log) as session:
         wait_for_sim_time_param(session)
         rospy.init_node("bench_stack_cpu", anonymous=True, disable_signals=True)
@@ -214,6 +242,8 @@ def main():
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--profile", metavar="DIR", help="run move_base under summit_nav_common.testing.profile_node, profiles in DIR")
     ap.add_argument("--print-goals", action="store_true", help="print the goals and exit")
+    ap.add_argument("--global-planner", help="move_base's base_global_planner (default: the course's navfn/NavfnROS)")
+    ap.add_argument("--local-planner", help="move_base's base_local_planner (default: the course's DWAPlannerROS)")
     ap.add_argument("--run-index", type=int, help=argparse.SUPPRESS)   # one run, in a child process
     args = ap.parse_args()
     roslaunch_session.exit_on_sigterm()   # `kill PID` stops the runs' graphs too
@@ -230,6 +260,8 @@ def main():
         cmd = [sys.executable, os.path.abspath(__file__), "--run-index", str(i), "--goals", str(args.goals),
                "--seed", str(args.seed), "--speed", str(args.speed)]
         cmd += ["--profile", args.profile] if args.profile else []
+        cmd += ["--global-planner", args.global_planner] if args.global_planner else []
+        cmd += ["--local-planner", args.local_planner] if args.local_planner else []
         r = profile_node.run_child(cmd, i)
         runs.append(r)
         c = r["cpu_per_sim_s"]
@@ -250,7 +282,8 @@ def main():
     result = dict(runs=runs, median=median, goals=args.goals, seed=args.seed, speed=args.speed,
                   reached_min=min(r["reached"] for r in runs), collisions=sum(r["collisions"] for r in runs),
                   target_sum_cpu_per_sim_s=TARGET_SUM_CPU_PER_SIM_S, real_cpu_per_sim_s=REAL_CPU_PER_SIM_S,
-                  profiled=bool(args.profile))
+                  profiled=bool(args.profile), global_planner=args.global_planner,
+                  local_planner=args.local_planner)
     if args.profile and "profile_shares" in runs[0]:
         result["profile_shares"] = runs[0]["profile_shares"]
         result["threads"] = runs[0]["threads"]
