@@ -202,13 +202,27 @@ class GridGraph:
     def __init__(self, cell_cost):
         self.cost = np.ascontiguousarray(cell_cost, dtype=np.float64)
         self.shape = self.cost.shape
-        h, w = self.shape
-        self.cells = np.flatnonzero(np.isfinite(self.cost).ravel())
-        self.node_of = np.full(h * w, -1, dtype=np.int64)
-        self.node_of[self.cells] = np.arange(self.cells.size)
-        n = self.cells.size
-        self.min_cost = float(self.cost.ravel()[self.cells].min()) if n else COST_NEUTRAL
+        finite = np.isfinite(self.cost)
+        self.min_cost = float(np.min(self.cost, where=finite, initial=np.inf)) if finite.any() else COST_NEUTRAL
+        self._cells = self._node_of = None   # built only for `matrix` (2 int64 per cell: issue 43)
         self._matrix = None
+
+    @property
+    def cells(self):
+        if self._cells is None:
+            self._cells = np.flatnonzero(np.isfinite(self.cost).ravel())
+        return self._cells
+
+    @property
+    def node_of(self):
+        if self._node_of is None:
+            self._node_of = np.full(self.shape[0] * self.shape[1], -1, dtype=np.int64)
+            self._node_of[self.cells] = np.arange(self.cells.size)
+        return self._node_of
+
+    def passable(self, cell):
+        """Whether flat cell index `cell` is a node of the graph."""
+        return math.isfinite(self.cost.flat[cell])
 
     @property
     def matrix(self):
@@ -233,9 +247,8 @@ class GridGraph:
         """8-connected component label of flat cell index cell (-1 if not passable)."""
         if getattr(self, "_labels", None) is None:
             # the components of the graph are those of the passable cells, 8-connected
-            passable = (self.node_of >= 0).reshape(self.shape).astype(np.uint8)
-            self._labels = components8(passable).ravel()
-        return int(self._labels[cell]) if self.node_of[cell] >= 0 else -1
+            self._labels = components8(np.isfinite(self.cost).astype(np.uint8)).ravel()
+        return int(self._labels[cell]) if self.passable(cell) else -1
 
     def potential_toward(self, source_cell, target_cell, cost_estimate=None, guide=None):
         """Dijkstra potential from source_cell, settled only as far as target_cell needs.
@@ -249,35 +262,39 @@ class GridGraph:
         components), or after BOUND_TRIES, the full Dijkstra runs.
         Returns (H, W) potentials, POT_HIGH where not settled.
         """
-        src, tgt = self.node_of[source_cell], self.node_of[target_cell]
-        if src < 0 or tgt < 0 or self.component_of(source_cell) != self.component_of(target_cell):
+        if not self.passable(source_cell) or not self.passable(target_cell) \
+                or self.component_of(source_cell) != self.component_of(target_cell):
             return self.potential(source_cell)
         h, w = self.shape
         tx, ty = target_cell % w, target_cell // w
         dx = np.abs(np.arange(w) - tx).astype(np.float64)[None, :]
         dy = np.abs(np.arange(h) - ty).astype(np.float64)[:, None]
-        heur = (self.min_cost * (np.maximum(dx, dy) + (SQRT2 - 1.0) * np.minimum(dx, dy))).ravel()
+        # in place: each full-grid temporary is 8 bytes a cell (issue 43); same values
+        heur = np.maximum(dx, dy)
+        heur += (SQRT2 - 1.0) * np.minimum(dx, dy)
+        heur *= self.min_cost
+        heur = heur.ravel()
         if guide is not None:
-            heur = np.maximum(heur, np.asarray(guide, dtype=np.float64).ravel())
-        heur = np.ascontiguousarray(heur)
+            np.maximum(heur, np.asarray(guide).ravel(), out=heur)
         hs = heur[source_cell]
         est = hs if cost_estimate is None or not math.isfinite(cost_estimate) else max(hs, cost_estimate)
         limit = max(BOUND_MARGIN * est - hs, self.min_cost)
         for _ in range(BOUND_TRIES):
             d = self._search(source_cell, heur, limit)     # on w' = w + h(v) - h(u)
             if np.isfinite(d[target_cell]):
-                pot = np.full(h * w, POT_HIGH)
                 reached = np.isfinite(d)
-                pot[reached] = d[reached] + hs - heur[reached]
-                pot[source_cell] = 0.0
-                return pot.reshape(self.shape)
+                d += hs            # d(s, v) = d'(s, v) + h(s) - h(v), in place
+                d -= heur
+                d[~reached] = POT_HIGH
+                d[source_cell] = 0.0
+                return d.reshape(self.shape)
             limit = BOUND_GROWTH * (limit + hs) - hs
         return self.potential(source_cell)
 
     def potential(self, source_cell, limit=np.inf):
         """Dijkstra distances (H, W) from flat cell index source_cell; POT_HIGH where unreached."""
         pot = np.full(self.shape[0] * self.shape[1], POT_HIGH)
-        if self.node_of[source_cell] < 0:
+        if not self.passable(source_cell):
             return pot.reshape(self.shape)
         d = self._search(source_cell, None, limit)
         reached = np.isfinite(d)
@@ -544,20 +561,20 @@ class NavFn:
     def __init__(self, config=None):
         self.config = config or NavfnConfig()
         self._cache_key = None
-        self._cache_costs = None
         self._cache_data = None        # the costmap costs the cached cell costs are of
         self._cache_cell_cost = None
         self._graph = None
 
     def _graph_for(self, cell_cost):
-        if self._cache_costs is not None and self._cache_costs.shape == cell_cost.shape \
-                and np.array_equal(self._cache_costs, cell_cost):
+        # the graph holds the cell costs it was built on (never written after): no copy
+        built_on = None if self._graph is None else self._graph.cost
+        if built_on is not None and (built_on is cell_cost or (built_on.shape == cell_cost.shape
+                                                              and np.array_equal(built_on, cell_cost))):
             return self._graph
         self._graph = GridGraph(cell_cost)
         self._coarse = GridGraph(coarse_cost_grid(cell_cost))
         ok = np.isfinite(cell_cost).astype(np.uint8)
         self._safe = erode3(np.pad(ok, 1, constant_values=0))[1:-1, 1:-1] > 0
-        self._cache_costs = cell_cost.copy()
         return self._graph
 
     def _coarse_guide(self, sc, gc, shape):
