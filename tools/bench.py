@@ -41,6 +41,10 @@ beside each time. Sections:
               second, peak RSS
   ekf_peer    (only with --only ekf_peer --ekf-node EXE [--ekf-node-setup SETUP]) the same bags and
               YAML played to another ekf_localization_node, e.g. the real robot_localization's
+  ekf_downstream  amcl and slam_gmapping on the tour with the skid-steer odometry, on the raw wheel
+              odometry and on the EKF's, seeds 1-5, each live (bench_ekf_downstream.py): amcl's
+              position and yaw error against the truth (median, max over the tour), slam_gmapping's
+              ATE and map precision / recall
   planning    the path-planning core (no ROS): NavFn and GlobalPlanner (A*, Dijkstra) plan
               time on willow-full-0.05 and their paths against the exact grid geodesic;
               one DWA control cycle; closed loop (global + local costmaps, simulator) of
@@ -380,6 +384,14 @@ def bench_ekf(node=None, node_setup=None, seeds=EKF_SEEDS):
     return res
 
 
+def bench_ekf_downstream(seeds=EKF_SEEDS):
+    """bench_ekf_downstream.py: amcl and slam_gmapping on the raw and on the fused odometry,
+    each seed's tour live for each."""
+    return _run_script("my_summit_localization", "bench_ekf_downstream.py",
+                       ["--seeds", *map(str, seeds), "--out", os.path.join(OUT, "bench_ekf_downstream")],
+                       "bench_ekf_downstream.json")
+
+
 PEER_WILLOW_PAIRS = 20   # planning's closed loop on willow-full-0.05
 # (global, local) kinds the peer runs: the lesson's global planner with each local planner
 PEER_COMBOS = (("navfn", "dwa"), ("navfn", "trajectory"), ("navfn", "trajectory-dwa"))
@@ -665,7 +677,7 @@ def main():
     if args.only == ["sim_rtf_child"]:
         print(json.dumps(bench_sim_rtf_once(profile=args.profile)))
         return 0
-    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_bag_karto", "slam_sim", "amcl", "ekf", "planning", "stack_cpu", "explore", "patrol",
+    only = args.only or ["laser", "sim_rtf", "slam_carmen", "slam_bag", "slam_bag_karto", "slam_sim", "amcl", "ekf", "ekf_downstream", "planning", "stack_cpu", "explore", "patrol",
                          "race_track", "multi_robot"]
     unknown = sorted(set(only) - set(bench_report.SECTIONS))
     if unknown:
@@ -698,6 +710,7 @@ def main():
         "slam_sim": lambda: bench_slam_sim(args.runs),
         "amcl": lambda: bench_amcl(max(1, min(args.runs, 3))),
         "ekf": bench_ekf,
+        "ekf_downstream": bench_ekf_downstream,
         "ekf_peer": lambda: bench_ekf(os.path.abspath(args.ekf_node),
                                       args.ekf_node_setup and os.path.abspath(args.ekf_node_setup)),
         "planning": lambda: bench_planning(args.runs),

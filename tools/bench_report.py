@@ -53,6 +53,10 @@ SECTIONS = {
             "heading error after the tour and ATE (no alignment) of the raw and the fused odometry, CPU, memory"),
     "ekf_peer": ("the real robot_localization's ekf_localization_node (or any compatible executable, given with "
                  "--ekf-node) on ekf's recorded tours with the same YAML: the oracle for its targets"),
+    "ekf_downstream": ("amcl and slam_gmapping on the tour with the skid-steer odometry, on the raw wheel odometry "
+                       "and on the EKF's (ekf:=true: odom -> base_footprint from ekf_localization_node), seeds 1-5 "
+                       "live: amcl's tracking error against the truth (tf map -> base_footprint every 0.1 s), "
+                       "slam_gmapping's ATE and map precision / recall (slam_sim's scoring)"),
     "planning": ("the path-planning core: NavFn, GlobalPlanner, one DWA cycle, closed loop of every global x local "
                  "planner over seeded goal pairs"),
     "planning_peer": ("the real move_base (or any move_base-compatible executable, given with --move-base) live "
@@ -461,6 +465,65 @@ def rows_ekf_peer(res):
     return _ekf_rows(res, False)
 
 
+def _at_least_as_good(fused, raw, fmt, higher_is_better=False):
+    """fused at least as good as raw at the precision the page shows them (fmt)."""
+    f, r = float(format(fused, fmt)), float(format(raw, fmt))
+    return f >= r if higher_is_better else f <= r
+
+
+def rows_ekf_downstream(res):
+    """amcl's tracking and slam_gmapping's map on the raw and the fused odometry
+    (bench_ekf_downstream.py): fused judged at least as good as raw, medians over seeds."""
+    out = []
+    amcl, slam = res.get("amcl", {}), res.get("slam", {})
+    if "raw" in amcl and "fused" in amcl:
+        raw, fused, n = amcl["raw"], amcl["fused"], amcl["fused"]["runs"]
+        worst = {odo: {k: max(r[k] for r in res["amcl_runs"] if r["odometry"] == odo)
+                       for k in ("pos_max_m", "yaw_max_deg")} for odo in ("raw", "fused")}
+        for key, what, unit, fmt in (("pos", "position", "m", ".3f"), ("yaw", "yaw", "deg", ".2f")):
+            med, mx = f"{key}_median_{unit}", f"{key}_max_{unit}"
+            head = f"amcl on the tour from the known pose ({n} seeds, {res['speed']:g}x): " if not out else "... "
+            out.append(row(f"{head}{what} error against the truth, the tour's median / max, medians over the seeds "
+                           "(worst max); raw -> fused",
+                           f"raw {raw[med]:{fmt}} / {raw[mx]:{fmt}} {unit} ({worst['raw'][mx]:{fmt}}) -> fused "
+                           f"{fused[med]:{fmt}} / {fused[mx]:{fmt}} {unit} ({worst['fused'][mx]:{fmt}})",
+                           {"raw": raw, "fused": fused, "worst": worst} if not out else
+                           {"raw": {k: raw[k] for k in (med, mx)}, "fused": {k: fused[k] for k in (med, mx)}},
+                           "fused <= raw (median and max)",
+                           _at_least_as_good(fused[med], raw[med], fmt) and _at_least_as_good(fused[mx], raw[mx], fmt)))
+    if "raw" in slam and "fused" in slam:
+        raw, fused, n = slam["raw"], slam["fused"], slam["fused"]["runs"]
+        out.append(row(f"slam_gmapping on the tour ({n} seeds, {res['speed']:g}x): ATE, median over the seeds; "
+                       "raw -> fused",
+                       f"raw {raw['ate_m']:.3f} m -> fused {fused['ate_m']:.3f} m",
+                       {"raw": raw, "fused": fused}, "fused <= raw", _at_least_as_good(fused["ate_m"], raw["ate_m"], ".3f")))
+        out.append(row("... map precision / recall, medians over the seeds; raw -> fused",
+                       f"raw {raw['precision']:.3f} / {raw['recall']:.3f} -> fused {fused['precision']:.3f} / "
+                       f"{fused['recall']:.3f}", {}, "fused >= raw",
+                       all(_at_least_as_good(fused[k], raw[k], ".3f", True) for k in ("precision", "recall"))))
+    by_seed = {}
+    for r in res.get("amcl_runs", []):
+        by_seed.setdefault(r["seed"], {}).setdefault(r["odometry"], {})["amcl"] = r
+    for r in res.get("slam_runs", []):
+        by_seed.setdefault(r["seed"], {}).setdefault(r["odometry"], {})["slam"] = r
+    parts = []
+    for seed, odos in sorted(by_seed.items()):
+        text = []
+        for odo in ("raw", "fused"):
+            o = odos.get(odo, {})
+            bits = []
+            if "amcl" in o:
+                bits.append(f"amcl {o['amcl']['pos_median_m']:.3f} m / {o['amcl']['yaw_median_deg']:.2f} deg")
+            if "slam" in o:
+                bits.append(f"ATE {o['slam']['ate_m']:.3f} m, {o['slam']['precision']:.3f} / {o['slam']['recall']:.3f}")
+            text.append(f"{odo} " + ", ".join(bits))
+        parts.append(f"{seed}: " + "; ".join(text))
+    if parts:
+        out.append(row("... per seed: amcl's median position / yaw error; slam_gmapping's ATE, precision / recall",
+                       " | ".join(parts), {}))
+    return out
+
+
 def closed_loop_key(world, global_kind, local_kind):
     """bench_planning_core's key of a closed loop: closed_loop_<world>[_<global>][_<local>],
     NavFn and DWA left out."""
@@ -779,7 +842,8 @@ def rows_memory(res):
 ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_carmen, "slam_bag": rows_slam_bag,
         "slam_bag_peer": rows_slam_bag_peer, "slam_bag_karto": rows_slam_bag_karto,
         "slam_bag_karto_peer": rows_slam_bag_karto_peer, "slam_replay_peer": rows_slam_replay_peer, "slam_sim": rows_slam_sim,
-        "amcl": rows_amcl, "ekf": rows_ekf, "ekf_peer": rows_ekf_peer, "planning": rows_planning,
+        "amcl": rows_amcl, "ekf": rows_ekf, "ekf_peer": rows_ekf_peer, "ekf_downstream": rows_ekf_downstream,
+        "planning": rows_planning,
         "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore,
         "patrol": rows_patrol, "race_track": rows_race_track,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e, "memory": rows_memory}
