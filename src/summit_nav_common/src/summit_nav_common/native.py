@@ -23,6 +23,9 @@ _i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
 _i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
 _u8 = np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS")
 _int64 = ctypes.c_int64
+_double = ctypes.c_double
+_out_points = ctypes.POINTER(ctypes.POINTER(ctypes.c_double))   # double **: a malloc'd (n, 2) array
+_out_int = ctypes.POINTER(ctypes.c_int)
 
 # name: (restype, argtypes), as declared in csrc/*.c
 SIGNATURES = {
@@ -51,6 +54,20 @@ SIGNATURES = {
     "snc_likelihoods": (None, [_f32, _int64] + [_i64] * 6 + [_f64, _int64, _f64, _f64, _f64, _int64, ctypes.c_double,
                                                      ctypes.c_double, ctypes.c_double, _int64, ctypes.c_double,
                                                      _f64, _f64]),
+    # csrc/global_planner.c (my_summit_path_planning.global_planner)
+    "snc_gp_expand": (ctypes.c_int, [_f64, _int64, _int64, _i64, _f64, _int64, _int64, _double, ctypes.c_int, _f64,
+                                     ctypes.POINTER(_int64)]),
+    "snc_gp_clear_endpoint": (None, [_f64, _int64, _int64, _f64, _int64, _int64, _int64, ctypes.c_int]),
+    "snc_gp_gradient_path": (_int64, [_f64, _int64, _int64, _double, _double, _double, _double, _double, _int64,
+                                      _out_points, _out_int]),
+    "snc_gp_grid_path": (_int64, [_f64, _int64, _int64, _int64, _int64, _int64, _int64, _int64, _out_points,
+                                  _out_int]),
+    "snc_free": (None, [ctypes.c_void_p]),
+    # csrc/footprint_cost.c, trajectory.c (my_summit_path_planning.footprint_cost, .trajectory_planner)
+    "snc_outline_costs": (None, [_u8, _int64, _i64, _i64, _u8, _int64, _int64, _f64]),
+    "snc_tp_wavefront": (ctypes.c_int, [_u8, _int64, _int64, _i64, _i64, _int64, _double, _f64]),
+    "snc_tp_first_failure": (None, [_u8, _int64, _i64, _int64, _int64, _int64, _u8, _i64, _i64, _u8, _f64, _i64,
+                                    _f64, _f64]),
 }
 
 
@@ -86,3 +103,15 @@ def library():
             fn.restype, fn.argtypes = restype, argtypes
         _lib = lib
     return _lib
+
+
+def take_points(ptr, n, what):
+    """The (n, 2) float64 points a kernel returned in a malloc'd buffer (ptr, n points),
+    copied into a NumPy array; the buffer is freed. n < 0: the kernel ran out of memory
+    (MemoryError naming `what`)."""
+    if n < 0:
+        raise MemoryError(f"{what}: out of memory")
+    try:
+        return np.ctypeslib.as_array(ptr, shape=(n, 2)).copy() if n else np.empty((0, 2))
+    finally:
+        library().snc_free(ptr)
