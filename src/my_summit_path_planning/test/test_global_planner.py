@@ -12,7 +12,7 @@ from my_summit_path_planning import cost_values as cv
 from my_summit_path_planning.costmap import Costmap2D
 from my_summit_path_planning.global_planner import (
     BACKWARD, FORWARD, FORWARD_THEN_INTERPOLATE, HEURISTIC_WEIGHT, INTERPOLATE, LEFTWARD, NONE, POT_HIGH,
-    RIGHTWARD, GlobalPlanner, GlobalPlannerConfig, _expand, orientation_filter, planner_costs,
+    RIGHTWARD, GlobalPlanner, GlobalPlannerConfig, expand as compiled_expand, orientation_filter, planner_costs,
     potential_reference, potential_to_occupancy)
 from my_summit_path_planning.navfn import NavFn, NavfnConfig, grid_geodesic_length
 from my_summit_path_planning.param_reader import UNREAD
@@ -26,12 +26,12 @@ def random_costs(rng, h, w, lethal_share=0.15):
 
 
 def expand(cost, seeds, goal, heuristic, quadratic):
-    """_expand on an (H, W) cost grid; seeds {(x, y): potential}; goal (x, y) or None."""
+    """The compiled expand on an (H, W) cost grid; seeds {(x, y): potential}; goal (x, y) or None."""
     h, w = cost.shape
     pot = np.full(h * w, POT_HIGH)
     cells = np.array([y * w + x for x, y in seeds], np.int64)
-    ok, n = _expand(cost.ravel(), w, h, cells, np.array(list(seeds.values()), np.float64),
-                    -1 if goal is None else goal[1] * w + goal[0], heuristic, quadratic, pot)
+    ok, n = compiled_expand(cost.ravel(), w, h, cells, np.array(list(seeds.values()), np.float64),
+                            -1 if goal is None else goal[1] * w + goal[0], heuristic, quadratic, pot)
     return ok, n, pot.reshape(h, w)
 
 

@@ -2,16 +2,18 @@
 outline, its edges rasterized with Bresenham's line, against the costmap.
 
 Used by TrajectoryPlannerROS (every trajectory point) and carrot_planner (the legal pose
-nearest the goal). ``footprint_costs`` checks many poses at once (compiled with numba:
-the outline's cells, stopping at the first lethal or unknown one);
-``footprint_cost_reference`` is its slow, obvious oracle.
+nearest the goal). ``footprint_costs`` checks many poses at once (``outline_costs``, C:
+summit_nav_common/csrc/footprint_cost.c, built by catkin, called through ctypes: the
+outline's cells, stopping at the first lethal or unknown one); the kernel's Python twin
+``_outline_costs`` is the C's bit-for-bit oracle and ``footprint_cost_reference`` the slow,
+obvious oracle of both.
 """
 import math
 
 import numpy as np
 
 from .cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from summit_nav_common.jit import njit
+from summit_nav_common.native import library
 from summit_nav_common.line_cells import line_cells_padded, line_cells_reference
 
 OFF_MAP = -3.0              # footprint cost: a vertex or the centre off the costmap
@@ -48,7 +50,6 @@ def _vertex_cells(costmap, polygon, x, y, th):
     return vx, vy, on_map
 
 
-@njit(cache=True, nogil=True)
 def _outline_cost(data, vx, vy):
     """Highest cost on the closed outline through the vertex cells vx, vy (K,) of the
     (H, W) uint8 grid data, its edges walked with Bresenham's iterator (ends included);
@@ -86,12 +87,37 @@ def _outline_cost(data, vx, vy):
     return float(worst)
 
 
-@njit(cache=True, nogil=True)
 def _outline_costs(data, vx, vy, on_map):
     """(M,) _outline_cost of each pose's vertex cells (M, K); OFF_MAP where not on_map."""
     out = np.empty(vx.shape[0])
     for m in range(vx.shape[0]):
         out[m] = _outline_cost(data, vx[m], vy[m]) if on_map[m] else OFF_MAP
+    return out
+
+
+def check_vertex_cells(what, data, vx, vy):
+    """vx, vy as C-contiguous int64 arrays of one shape, every cell on the (H, W) grid data
+    (the compiled kernels read the grid there); ValueError naming `what` otherwise."""
+    vx, vy = np.ascontiguousarray(vx, dtype=np.int64), np.ascontiguousarray(vy, dtype=np.int64)
+    h, w = data.shape
+    if vx.shape != vy.shape:
+        raise ValueError(f"{what}: vertex cells of shapes {vx.shape} and {vy.shape}")
+    if vx.size and (vx.min() < 0 or vy.min() < 0 or vx.max() >= w or vy.max() >= h):
+        raise ValueError(f"{what}: a vertex cell off the {w} x {h} costmap")
+    return vx, vy
+
+
+def outline_costs(data, vx, vy, on_map):
+    """_outline_costs in C: (M,) outline cost of each pose's vertex cells vx, vy (M, K)
+    on the uint8 grid data (H, W); OFF_MAP where not on_map (M,) bool."""
+    data = np.ascontiguousarray(data, dtype=np.uint8)
+    vx, vy = check_vertex_cells("outline_costs", data, vx, vy)
+    on_map = np.ascontiguousarray(on_map, dtype=bool)
+    m, k = vx.shape
+    if on_map.shape != (m,):
+        raise ValueError(f"outline_costs: on_map of shape {on_map.shape} for {m} poses")
+    out = np.empty(m)
+    library().snc_outline_costs(data, data.shape[1], vx, vy, on_map.view(np.uint8), m, k, out)
     return out
 
 
@@ -104,7 +130,7 @@ def footprint_costs(costmap, polygon, x, y, th):
     highest cost on the outline.
     """
     vx, vy, on_map = _vertex_cells(costmap, polygon, x, y, th)
-    return _outline_costs(costmap.data, vx, vy, on_map)
+    return outline_costs(costmap.data, vx, vy, on_map)
 
 
 def footprint_cost_reference(costmap, polygon, x, y, th):

@@ -45,9 +45,12 @@ The algorithm, in the order it runs (GlobalPlanner.make_plan):
    (ForwardThenInterpolate); None leaves yaw 0. The last pose has the goal's yaw. The
    real orientation_mode default is the .cfg's Forward (1): dynamic_reconfigure sets it.
 
-The hot loops (expansion, both path makers) are compiled with numba when it is present
-(Debian's python3-numba) and run as plain Python otherwise; ``potential_reference`` is
-the slow, obvious expansion kept as the test oracle.
+The hot loops (expansion, the fill around the goal, both path makers) are C
+(summit_nav_common/csrc/global_planner.c, built by catkin, called through ctypes: no numba
+and its LLVM in move_base): ``expand``, ``clear_endpoint``, ``gradient_path`` and
+``grid_path``. Their Python twins (``_expand``, ``_clear_endpoint``, ``_gradient_path``,
+``_grid_path``) are the C's bit-for-bit test oracle; ``potential_reference`` is the slow,
+obvious expansion kept as the oracle of both.
 
 Deliberate differences from the real planner:
 - A* has the real AStarExpansion's cell costs (raw cost + neutral_cost; the real one
@@ -74,6 +77,7 @@ Deliberate differences from the real planner:
 - When the gradient descent fails the grid path is used (as the real planner once did); ForwardThenInterpolate blends from the start of the straight stretch
   (the real filter offsets the blend by that index).
 """
+import ctypes
 import math
 from dataclasses import dataclass, field
 
@@ -84,7 +88,7 @@ from .global_plan import (POT_HIGH, PlanResult, _nearest_reached, _why_unreachab
                           start_region)
 from .param_reader import Schema
 
-from summit_nav_common.jit import njit
+from summit_nav_common.native import library, take_points
 
 PATH_STEP = 0.5          # [cells] gradient-descent step (GradientPath's pathStep)
 CLEAR_ENDPOINT = 2       # [cells] half-width of the square around the goal filled in after expansion
@@ -160,8 +164,9 @@ def planner_costs(costs, lethal_cost=253, neutral_cost=50, cost_factor=3.0, allo
 
 
 # ----- the expansion ------------------------------------------------------------------------
+# The kernels' Python (the C's oracle): libm's hypot through np.hypot, as the C (math.hypot
+# rounds differently in ~0.5 % of cases).
 
-@njit(cache=True, nogil=True)
 def _update(pot, cost, n, nx, ny, quadratic):
     """New potential of flat cell n from its four neighbours (the potential calculators)."""
     x = n % nx
@@ -185,7 +190,6 @@ def _update(pot, cost, n, nx, ny, quadratic):
     return ta + hf * (QUAD_A * d * d + QUAD_B * d + QUAD_C)
 
 
-@njit(cache=True, nogil=True)
 def _heap_push(keys, vals, size, key, val):
     """Push onto the binary min-heap (keys, vals) holding size entries; returns the arrays
     (new ones when they had to grow)."""
@@ -208,7 +212,6 @@ def _heap_push(keys, vals, size, key, val):
     return keys, vals
 
 
-@njit(cache=True, nogil=True)
 def _heap_pop(keys, vals, size):
     """Remove the smallest entry of the heap of size entries; returns its value."""
     top = vals[0]
@@ -232,7 +235,6 @@ def _heap_pop(keys, vals, size):
     return top
 
 
-@njit(cache=True, nogil=True)
 def _expand(cost, nx, ny, seeds, seed_pots, goal, heuristic, quadratic, pot):
     """Propagate the potential from the seed cells until goal is accepted (goal -1: until
     every reachable cell is). cost: (nx*ny,) float, inf forbidden; pot: (nx*ny,) filled
@@ -250,7 +252,7 @@ def _expand(cost, nx, ny, seeds, seed_pots, goal, heuristic, quadratic, pot):
         s = seeds[k]
         if seed_pots[k] < pot[s]:
             pot[s] = seed_pots[k]
-            h = heuristic * math.hypot(s % nx - gx, s // nx - gy) if heuristic > 0.0 else 0.0
+            h = heuristic * np.hypot(s % nx - gx, s // nx - gy) if heuristic > 0.0 else 0.0
             keys, vals = _heap_push(keys, vals, size, pot[s] + h, s)
             size += 1
     accepted = 0
@@ -287,13 +289,12 @@ def _expand(cost, nx, ny, seeds, seed_pots, goal, heuristic, quadratic, pot):
             p = _update(pot, cost, m, nx, ny, quadratic)
             if p < pot[m]:
                 pot[m] = p
-                h = heuristic * math.hypot(m % nx - gx, m // nx - gy) if heuristic > 0.0 else 0.0
+                h = heuristic * np.hypot(m % nx - gx, m // nx - gy) if heuristic > 0.0 else 0.0
                 keys, vals = _heap_push(keys, vals, size, p + h, m)
                 size += 1
     return False, accepted
 
 
-@njit(cache=True, nogil=True)
 def _clear_endpoint(cost, nx, ny, pot, gx, gy, half, quadratic):
     """Give the unreached passable cells within half cells of (gx, gy) a potential from their
     neighbours (in x-major order, each fill seeing the earlier ones)."""
@@ -362,7 +363,6 @@ def potential_reference(cost, seeds, goal=None, heuristic=0.0, quadratic=True):
 
 # ----- the path makers ----------------------------------------------------------------------
 
-@njit(cache=True, nogil=True)
 def _append(buf, n, x, y):
     if n == buf.shape[0]:
         nb = np.empty((2 * n, 2), buf.dtype)
@@ -373,27 +373,28 @@ def _append(buf, n, x, y):
     return buf
 
 
-@njit(cache=True, nogil=True)
-def _grad(pot, nx, n):
-    """Unit downhill gradient (gx, gy) of reached cell n from its reached 4-neighbours."""
+def _grad(pot, nx, ny, n):
+    """Unit downhill gradient (gx, gy) of reached cell n from its reached 4-neighbours (a
+    neighbour off the grid counts as unreached)."""
+    x = n % nx
+    y = n // nx
     p = pot[n]
     gx = 0.0
     gy = 0.0
-    if pot[n - 1] < POT_HIGH:
+    if x > 0 and pot[n - 1] < POT_HIGH:
         gx += pot[n - 1] - p
-    if pot[n + 1] < POT_HIGH:
+    if x < nx - 1 and pot[n + 1] < POT_HIGH:
         gx += p - pot[n + 1]
-    if pot[n - nx] < POT_HIGH:
+    if y > 0 and pot[n - nx] < POT_HIGH:
         gy += pot[n - nx] - p
-    if pot[n + nx] < POT_HIGH:
+    if y < ny - 1 and pot[n + nx] < POT_HIGH:
         gy += p - pot[n + nx]
-    norm = math.hypot(gx, gy)
+    norm = np.hypot(gx, gy)
     if norm > 0.0:
         return gx / norm, gy / norm
     return 0.0, 0.0
 
 
-@njit(cache=True, nogil=True)
 def _lowest_neighbour(pot, nx, ny, cx, cy):
     """The 8-neighbour of cell (cx, cy) with the lowest potential below its own, else (cx, cy)."""
     best = pot[cy * nx + cx]
@@ -407,7 +408,6 @@ def _lowest_neighbour(pot, nx, ny, cx, cy):
     return bx, by
 
 
-@njit(cache=True, nogil=True)
 def _gradient_path(pot, nx, ny, sx, sy, gx, gy, step, max_cycles):
     """Descend the potential from (gx, gy) to (sx, sy) [cells, centres at integers].
 
@@ -442,13 +442,13 @@ def _gradient_path(pot, nx, ny, sx, sy, gx, gy, step, max_cycles):
         iy = int(math.floor(py))
         fx, fy = px - ix, py - iy
         i00 = iy * nx + ix
-        g00 = _grad(pot, nx, i00)
-        g10 = _grad(pot, nx, i00 + 1)
-        g01 = _grad(pot, nx, i00 + nx)
-        g11 = _grad(pot, nx, i00 + nx + 1)
+        g00 = _grad(pot, nx, ny, i00)
+        g10 = _grad(pot, nx, ny, i00 + 1)
+        g01 = _grad(pot, nx, ny, i00 + nx)
+        g11 = _grad(pot, nx, ny, i00 + nx + 1)
         vx = (1 - fy) * ((1 - fx) * g00[0] + fx * g10[0]) + fy * ((1 - fx) * g01[0] + fx * g11[0])
         vy = (1 - fy) * ((1 - fx) * g00[1] + fx * g10[1]) + fy * ((1 - fx) * g01[1] + fx * g11[1])
-        norm = math.hypot(vx, vy)
+        norm = np.hypot(vx, vy)
         if norm == 0.0:
             return buf[:n], False
         px += step * vx / norm
@@ -456,7 +456,6 @@ def _gradient_path(pot, nx, ny, sx, sy, gx, gy, step, max_cycles):
     return buf[:n], False
 
 
-@njit(cache=True, nogil=True)
 def _grid_path(pot, nx, ny, sx, sy, gx, gy, max_cycles):
     """Steepest descent over 8-neighbours from cell (gx, gy) to cell (sx, sy).
 
@@ -480,6 +479,58 @@ def _grid_path(pot, nx, ny, sx, sy, gx, gy, max_cycles):
         buf = _append(buf, n, x, y)
         n += 1
     return buf[:n], False
+
+
+# ----- the kernels, compiled (csrc/global_planner.c): the Python ones' arguments and results ---
+
+def _check_grid(what, nx, ny, *grids):
+    if nx < 1 or ny < 1:
+        raise ValueError(f"{what}: a grid of {nx} x {ny} cells")
+    for g in grids:
+        if g.dtype != np.float64 or g.ndim != 1 or g.size != nx * ny:
+            raise ValueError(f"{what}: expected flat float64 grids of {nx} x {ny} cells, got {g.dtype} {g.shape}")
+
+
+def expand(cost, nx, ny, seeds, seed_pots, goal, heuristic, quadratic, pot):
+    """_expand in C: pot (flat float64, POT_HIGH everywhere) written in place; returns
+    (goal accepted, number of cells accepted)."""
+    _check_grid("expand", nx, ny, cost, pot)
+    seeds = np.ascontiguousarray(seeds, dtype=np.int64)
+    seed_pots = np.ascontiguousarray(seed_pots, dtype=np.float64)
+    if seeds.shape != seed_pots.shape or ((seeds < 0) | (seeds >= nx * ny)).any():
+        raise ValueError(f"expand: seeds {seeds} with potentials {seed_pots} on {nx} x {ny} cells")
+    accepted = ctypes.c_int64(0)
+    reached = library().snc_gp_expand(cost, nx, ny, seeds, seed_pots, seeds.size, int(goal), float(heuristic),
+                                      int(bool(quadratic)), pot, ctypes.byref(accepted))
+    if reached < 0:
+        raise MemoryError("expand: out of memory")
+    return reached == 1, accepted.value
+
+
+def clear_endpoint(cost, nx, ny, pot, gx, gy, half, quadratic):
+    """_clear_endpoint in C (pot written in place)."""
+    _check_grid("clear_endpoint", nx, ny, cost, pot)
+    library().snc_gp_clear_endpoint(cost, nx, ny, pot, int(gx), int(gy), int(half), int(bool(quadratic)))
+
+
+def gradient_path(pot, nx, ny, sx, sy, gx, gy, step, max_cycles):
+    """_gradient_path in C: ((M, 2) points from the goal to the start, ok)."""
+    _check_grid("gradient_path", nx, ny, pot)
+    out, ok = ctypes.POINTER(ctypes.c_double)(), ctypes.c_int(0)
+    n = library().snc_gp_gradient_path(pot, nx, ny, float(sx), float(sy), float(gx), float(gy), float(step),
+                                       int(max_cycles), ctypes.byref(out), ctypes.byref(ok))
+    return take_points(out, n, "gradient_path"), bool(ok.value)
+
+
+def grid_path(pot, nx, ny, sx, sy, gx, gy, max_cycles):
+    """_grid_path in C: ((M, 2) cell coordinates from the goal to the start, ok)."""
+    _check_grid("grid_path", nx, ny, pot)
+    if not (0 <= gx < nx and 0 <= gy < ny):
+        raise ValueError(f"grid_path: goal cell ({gx}, {gy}) off the {nx} x {ny} grid")
+    out, ok = ctypes.POINTER(ctypes.c_double)(), ctypes.c_int(0)
+    n = library().snc_gp_grid_path(pot, nx, ny, int(sx), int(sy), int(gx), int(gy), int(max_cycles),
+                                   ctypes.byref(out), ctypes.byref(ok))
+    return take_points(out, n, "grid_path"), bool(ok.value)
 
 
 # ----- orientations ---------------------------------------------------------------------------
@@ -614,11 +665,11 @@ class GlobalPlanner:
         pot = np.full(nx * ny, POT_HIGH)
         target_cell = gc[1] * nx + gc[0] if goal_passable else -1
         heuristic = 0.0 if cfg.use_dijkstra else HEURISTIC_WEIGHT * cfg.neutral_cost
-        reached, self.cells_expanded = _expand(flat_cost, nx, ny, seeds, seed_pots, target_cell,
-                                               heuristic, cfg.use_quadratic, pot)
+        reached, self.cells_expanded = expand(flat_cost, nx, ny, seeds, seed_pots, target_cell,
+                                              heuristic, cfg.use_quadratic, pot)
         target = gc
         if reached and not cfg.old_navfn_behavior:
-            _clear_endpoint(flat_cost, nx, ny, pot, gc[0], gc[1], CLEAR_ENDPOINT, cfg.use_quadratic)
+            clear_endpoint(flat_cost, nx, ny, pot, gc[0], gc[1], CLEAR_ENDPOINT, cfg.use_quadratic)
         pot = pot.reshape(ny, nx)
         keep = cfg.visualize_potential or cfg.publish_potential
         self.potential = pot if keep else None
@@ -676,11 +727,11 @@ class GlobalPlanner:
         flat = pot.ravel()
         max_cycles = 4 * nx * ny
         if not self.config.use_grid_path:
-            cells, ok = _gradient_path(flat, nx, ny, float(s_xy[0]), float(s_xy[1]), float(g_xy[0]),
-                                       float(g_xy[1]), PATH_STEP, max_cycles)
+            cells, ok = gradient_path(flat, nx, ny, float(s_xy[0]), float(s_xy[1]), float(g_xy[0]),
+                                      float(g_xy[1]), PATH_STEP, max_cycles)
             if ok:
                 return cells
-        cells, ok = _grid_path(flat, nx, ny, int(sc[0]), int(sc[1]), int(target[0]), int(target[1]), max_cycles)
+        cells, ok = grid_path(flat, nx, ny, int(sc[0]), int(sc[1]), int(target[0]), int(target[1]), max_cycles)
         return cells if ok else None
 
 

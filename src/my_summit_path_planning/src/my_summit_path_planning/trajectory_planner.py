@@ -78,9 +78,12 @@ second).
 Speed: the trajectories of all samples are simulated at once with numpy (``rollout``:
 velocity ramps and poses as cumulative sums, the footprint's vertex cells of every
 point); the checks then walk each trajectory point by point in a compiled kernel
-(numba, ``_first_failure``: the outline's Bresenham cells, stopping at the first point
-that fails, as generateTrajectory does), and the distance grids are a compiled
-breadth-first queue (``_wavefront``). ``generate_trajectory_reference``,
+(``first_failure``: the outline's Bresenham cells, stopping at the first point that
+fails, as generateTrajectory does), and the distance grids are a compiled breadth-first
+queue (``wavefront``). Both are C (summit_nav_common/csrc/trajectory.c, built by catkin,
+called through ctypes: no numba and its LLVM in move_base); their Python twins
+(``_first_failure``, ``_wavefront``) are the C's bit-for-bit oracle.
+``generate_trajectory_reference``,
 ``map_grid_reference``, ``footprint_cells_reference`` and ``densify_reference`` are the
 literal per-trajectory loops and queue, kept as the test oracle (TrajectoryPlanner(...,
 reference=True) runs on the first two).
@@ -92,12 +95,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from .footprint_cost import (COLLIDES, OFF_MAP, _outline_cost, _outline_costs, _vertex_cells, bresenham,
+from .footprint_cost import (COLLIDES, OFF_MAP, _outline_cost, _vertex_cells, bresenham, check_vertex_cells,
                              footprint_cost_reference, world_to_cells)
 from .local_plan import DWAResult, HeldPlan
 from .param_reader import WARNING, Note, ParamError, Schema
 from summit_nav_common.geometry import inverse, transform_points, wrap_angle
-from summit_nav_common.jit import njit
+from summit_nav_common.native import library
 
 PRUNE_DIST = 1.0            # [m] prunePlan drops plan points until one this near the robot
 STOPPED_VEL = 1e-2          # [m/s, rad/s] TrajectoryPlannerROS: below this the robot counts as stopped
@@ -393,7 +396,6 @@ def blocked_cells(costmap, within_robot):
     return ((d == LETHAL_OBSTACLE) | (d == INSCRIBED_INFLATED_OBSTACLE) | (d == NO_INFORMATION)) & ~within_robot
 
 
-@njit(cache=True, nogil=True)
 def _wavefront(blocked, tx, ty, obstacle):
     """The breadth-first wave of map_grid over blocked (H, W) bool from the target cells
     (tx, ty), with a flat array as its queue (each cell enters it at most once)."""
@@ -426,6 +428,22 @@ def _wavefront(blocked, tx, ty, obstacle):
     return dist
 
 
+def wavefront(blocked, tx, ty, obstacle):
+    """_wavefront in C: (H, W) float64 distances [cells] over blocked (H, W) bool from the
+    target cells (tx, ty) (on the grid)."""
+    blocked = np.ascontiguousarray(blocked, dtype=bool)
+    h, w = blocked.shape
+    tx, ty = np.ascontiguousarray(tx, dtype=np.int64).ravel(), np.ascontiguousarray(ty, dtype=np.int64).ravel()
+    if tx.shape != ty.shape:
+        raise ValueError(f"wavefront: {tx.size} x but {ty.size} y target cells")
+    if tx.size and (tx.min() < 0 or ty.min() < 0 or tx.max() >= w or ty.max() >= h):
+        raise ValueError(f"wavefront: a target cell off the {w} x {h} grid")
+    dist = np.empty((h, w))
+    if library().snc_tp_wavefront(blocked.view(np.uint8), h, w, tx, ty, tx.size, float(obstacle), dist):
+        raise MemoryError("wavefront: out of memory")
+    return dist
+
+
 def map_grid(costmap, targets, within_robot):
     """MapGrid::computeTargetDistance: (H, W) float distances [cells].
 
@@ -434,7 +452,7 @@ def map_grid(costmap, targets, within_robot):
     (H x W) and stops it; cells never touched get obstacle_cost + 1.
     """
     mx, my = (np.asarray(v, dtype=np.int64).ravel() for v in targets)
-    return _wavefront(blocked_cells(costmap, within_robot), mx, my, float(costmap.data.size))
+    return wavefront(blocked_cells(costmap, within_robot), mx, my, float(costmap.data.size))
 
 
 def map_grid_reference(costmap, targets, within_robot):
@@ -528,7 +546,6 @@ class Rollouts:
         return np.column_stack([self.x[i, :k], self.y[i, :k], self.th[i, :k]])
 
 
-@njit(cache=True, nogil=True)
 def _first_failure(data, n, on_map, vx, vy, no_way, centre):
     """Each trajectory's points in order, as generateTrajectory checks them, until the
     first that fails: (first (N,) index of that point, or n if none; fail (N,) COLLIDES
@@ -550,6 +567,26 @@ def _first_failure(data, n, on_map, vx, vy, no_way, centre):
                 first[i], fail[i] = j, NO_WAY
                 break
             occ[i] = max(occ[i], fp, centre[i, j])
+    return first, fail, occ
+
+
+def first_failure(data, n, on_map, vx, vy, no_way, centre):
+    """_first_failure in C: the same arguments (data the (H, W) uint8 costmap) and results."""
+    data = np.ascontiguousarray(data, dtype=np.uint8)
+    vx, vy = check_vertex_cells("first_failure", data, vx, vy)
+    n_traj, s, k = vx.shape
+    n = np.ascontiguousarray(n, dtype=np.int64)
+    on_map, no_way = (np.ascontiguousarray(a, dtype=bool) for a in (on_map, no_way))
+    centre = np.ascontiguousarray(centre, dtype=np.float64)
+    if n.shape != (n_traj,) or on_map.shape != (n_traj, s) or no_way.shape != (n_traj, s) or \
+            centre.shape != (n_traj, s):
+        raise ValueError(f"first_failure: n {n.shape}, on_map {on_map.shape}, no_way {no_way.shape}, centre "
+                         f"{centre.shape} for vertex cells {vx.shape}")
+    if n_traj and (n.min() < 0 or n.max() > s):
+        raise ValueError(f"first_failure: point counts outside 0..{s}")
+    first, fail, occ = np.empty(n_traj, np.int64), np.empty(n_traj), np.empty(n_traj)
+    library().snc_tp_first_failure(data, data.shape[1], n, n_traj, s, k, on_map.view(np.uint8), vx, vy,
+                                   no_way.view(np.uint8), centre, first, fail, occ)
     return first, fail, occ
 
 
@@ -595,7 +632,7 @@ def rollout(cfg, pose, vel, samples, costmap, grids, polygon, biases):
     vert_x, vert_y, on_map = (np.zeros(x.shape + (len(polygon),), dtype=np.int64),
                               np.zeros(x.shape + (len(polygon),), dtype=np.int64), np.zeros(x.shape, dtype=bool))
     vert_x[live], vert_y[live], on_map[live] = _vertex_cells(costmap, polygon, x[live], y[live], th[live])
-    first, fail, occ = _first_failure(costmap.data, n, inside & on_map, vert_x, vert_y, no_way, centre)
+    first, fail, occ = first_failure(costmap.data, n, inside & on_map, vert_x, vert_y, no_way, centre)
     rows = np.arange(len(samples))
     if cfg.heading_scoring:
         for i, j in zip(*np.nonzero(scored & (first == n)[:, None])):
@@ -721,22 +758,6 @@ def sign(v):
     return -1.0 if v < 0.0 else 1.0
 
 
-_WARM = []
-
-
-def warm_up():
-    """Compile the kernels (numba) on a tiny case once per process, so that a planner's
-    first control cycle does not pay the compilation (about 1 s without numba's cache)."""
-    if _WARM:
-        return
-    grid = np.zeros((3, 3), dtype=np.uint8)
-    cells = np.zeros((1, 1, 2), dtype=np.int64)
-    _wavefront(grid > 0, np.array([1]), np.array([1]), float(grid.size))
-    _first_failure(grid, np.array([1]), np.ones((1, 1), dtype=bool), cells, cells, np.zeros((1, 1), dtype=bool),
-                   np.zeros((1, 1)))
-    _outline_costs(grid, cells[0], cells[0], np.ones(1, dtype=bool))
-    _WARM.append(True)
-
 # -- the planner ----------------------------------------------------------------------------
 class TrajectoryPlanner(HeldPlan):
     """base_local_planner's TrajectoryPlannerROS without ROS (nav_core's BaseLocalPlanner).
@@ -755,8 +776,6 @@ class TrajectoryPlanner(HeldPlan):
         self.polygon = np.asarray(footprint.polygon, dtype=np.float64)
         self._rollout = rollout_reference if reference else rollout
         self._grid_fn = map_grid_reference if reference else map_grid
-        if not reference:
-            warm_up()
         self.notes = []        # param_reader Notes about its parameters, for the caller to log once
         self.plan = None
         self.goal_yaw = 0.0
