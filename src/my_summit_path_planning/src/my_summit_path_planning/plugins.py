@@ -17,8 +17,9 @@ Registered here:
                        my_summit_path_planning/BackUpRecovery, .../TurnAroundRecovery
 A registration is one line: ``REGISTRY.register(type, factory(params, ctx, where))``.
 The planners move_base's default configuration does not pick (global_planner,
-carrot_planner, base_local_planner) are imported by their factory, when chosen: their
-compiled kernels (numba) are then loaded only by a move_base that uses them.
+carrot_planner, base_local_planner) are imported by their factory, when chosen (their
+modules and kernels are then loaded only by a move_base that uses them; the kernels are C,
+summit_nav_common/csrc, so no planner loads numba).
 """
 import inspect
 
@@ -73,7 +74,7 @@ def _navfn(params, ctx, where):
 
 
 def _global_planner(params, ctx, where):
-    from .global_planner import GlobalPlanner   # numba: loaded only when chosen
+    from .global_planner import GlobalPlanner   # imported only when chosen
     return GlobalPlanner.from_params(params, where, f"~{where}")
 
 
@@ -104,7 +105,7 @@ def _dwa_planner(params, ctx, where):
 
 LOCAL_PLANNERS.register("dwa_local_planner/DWAPlannerROS", _dwa_planner, limits=dwa_limits)
 def _trajectory_planner(params, ctx, where):
-    from .trajectory_planner import TrajectoryPlanner   # numba: loaded only when chosen
+    from .trajectory_planner import TrajectoryPlanner   # imported only when chosen
     return TrajectoryPlanner.from_params(params, ctx.footprint, where, controller_frequency=ctx.controller_frequency,
                                          note_where=f"~{where}")
 
