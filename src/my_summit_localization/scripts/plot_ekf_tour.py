@@ -4,7 +4,8 @@
 Reads a tour recorded by bench_ekf.py (/odom, /base_pose_ground_truth) and the node's
 odometry/filtered from the same run, puts both odometries into the world frame at the
 robot's start pose (where their odom frame began), and draws them over the world's map:
-green the truth, red the raw wheel odometry, blue the fused; each track's end marked
+green the truth, red the raw wheel odometry, blue the fused (thin, on top of the truth's
+wider line); each track's end marked
 with its heading. The legend gives each one's heading error after the tour and ATE
 (my_summit_localization.odom_error, no alignment).
 
@@ -63,10 +64,11 @@ def draw(world, tracks, labels, out):
     def px(x, y):
         return (int(round(((x - ox) / res - c0) * SCALE)), int(round(h - ((y - oy) / res - r0) * SCALE)))
 
-    for name in ("raw", "fused", "truth"):
+    # the fused track last and thin: it runs on the truth's, which is drawn wider under it
+    for name, width in (("raw", 2), ("truth", 4), ("fused", 1)):
         t = tracks[name]
         pts = np.array([px(x, y) for x, y in t[:, 1:3]], dtype=np.int32)
-        cv2.polylines(img, [pts], False, COLOURS[name], 2 if name != "truth" else 3, cv2.LINE_AA)
+        cv2.polylines(img, [pts], False, COLOURS[name], width, cv2.LINE_AA)
         x, y, yaw = t[-1, 1:4]
         cv2.circle(img, px(x, y), 7, COLOURS[name], 2, cv2.LINE_AA)
         cv2.line(img, px(x, y), px(x + 0.8 * math.cos(yaw), y + 0.8 * math.sin(yaw)), COLOURS[name], 2, cv2.LINE_AA)
@@ -104,8 +106,8 @@ def main():
         e = odom_error(track, truth, t_end=t_end)
         world_rows = np.column_stack([track[:, 0], compose(start, track[:, 1:4])])
         tracks[name] = world_rows
-        labels.append((name, f"{what}: heading error at the end {math.degrees(e.final_heading):.1f} deg, "
-                             f"ATE {e.ate:.2f} m"))
+        labels.append((name, f"{what}: heading error at the end {math.degrees(e.final_heading):.2f} deg, "
+                             f"ATE {e.ate:.3f} m"))
     draw(load_map(args.world), tracks, labels, args.out)
     print(f"wrote {args.out}")
 
