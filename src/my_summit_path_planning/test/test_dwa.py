@@ -322,7 +322,7 @@ def test_no_valid_trajectory_reason_counts_constraints(footprint):
 
 @pytest.mark.parametrize("period", [0.05, 0.85])
 @pytest.mark.parametrize("err0", [0.1, 0.8, 1.57, 3.1, -2.0])
-def test_goal_rotation_is_time_optimal_without_overshoot(err0, period):
+def test_goal_approach_is_time_optimal_without_overshoot(err0, period):
     """rotation_speed on a base that tracks the command within acc_lim_theta (5 ms steps,
     commands every period): it stops inside the yaw tolerance, never turns past the goal
     heading, and takes at most 15 % longer than the bang-bang bound, plus two periods of a
@@ -333,7 +333,7 @@ def test_goal_rotation_is_time_optimal_without_overshoot(err0, period):
     held that long turns 0.26 rad, more than the whole tolerance window (0.12): the robot
     turned back and forth across the goal heading until move_base's 10 s oscillation
     timeout. The command is now planned for the period it stays in force."""
-    from my_summit_path_planning.goal_rotation import rotation_speed
+    from my_summit_path_planning.goal_approach import rotation_speed
     from summit_nav_common.geometry import wrap_angle
     acc, vmax, vmin, tol, step = 5.0, 3.0, 0.3, 0.06, 0.005
     yaw, w, t, passed = 0.0, 0.0, 0.0, False

@@ -3,7 +3,7 @@
 A planner module (one file per nav_core plugin: dwa, trajectory_planner, navfn,
 global_planner, carrot_planner) imports no other planner's module: what two planners
 share lives in a module named for what it holds (local_plan, latency, clearance,
-oscillation, goal_rotation, footprint_cost, global_plan). The pure package imports no
+oscillation, goal_approach, footprint_cost, global_plan). The pure package imports no
 rospy: the ROS side lives in its ros subpackage (costmap_ros, sensor_hub, reconfigure),
 which no pure module imports; the shared modules import no planner.
 """
@@ -14,7 +14,7 @@ import pytest
 
 PKG = os.path.join(os.path.dirname(__file__), "..", "src", "my_summit_path_planning")
 PLANNERS = {"dwa", "trajectory_planner", "navfn", "global_planner", "carrot_planner"}
-SHARED = {"local_plan", "latency", "clearance", "oscillation", "goal_rotation", "footprint_cost", "global_plan"}
+SHARED = {"local_plan", "latency", "clearance", "oscillation", "goal_approach", "footprint_cost", "global_plan"}
 ROS = {"rospy", "dynamic_reconfigure", "tf2_ros", "actionlib"}
 ROS_SUBPACKAGE = "ros"
 

@@ -492,3 +492,15 @@ def test_closed_loop_reaches_goals_without_collisions(kind):
     assert c["collisions"] == 0
     assert c["reached_share"] == 1.0, [(r["xy_error_m"], r["yaw_error_rad"], r["time_s"])
                                        for r in c["runs_detail"]]
+
+
+def test_goal_approach_steps_by_hand():
+    """The shared steps at the goal (goal_approach), on the negative side the test above
+    does not reach: rotateToGoal from -0.3 rad/s toward a heading -0.5 rad away: -0.5, within
+    0.3 +- 3.2 x 0.05 -> -0.46, under sqrt(2 x 3.2 x 0.5) = 1.79 -> -0.46; braking never
+    passes zero."""
+    from my_summit_path_planning.goal_approach import braked, rotate_to_goal_speed
+    assert rotate_to_goal_speed(-0.5, -0.3, 3.2, 1.0, -1.0, 0.4, 0.05) == pytest.approx(-0.46)
+    assert rotate_to_goal_speed(-0.05, 0.0, 3.2, 1.0, -1.0, 0.4, 0.05) == pytest.approx(-0.4)  # min_in_place
+    assert braked(-0.3, 2.5, 0.05) == pytest.approx(-0.175)
+    assert braked(0.1, 2.5, 0.05) == 0.0

@@ -81,7 +81,7 @@ from summit_nav_common.geometry import wrap_angle
 from summit_nav_common.grid_kernels import chamfer_labels
 
 from .clearance import ClearancePolicy, _nearest_blocked, footprint_checks, footprint_clearance, obstacle_distance
-from .goal_rotation import rotation_speed
+from .goal_approach import braked, rotation_speed
 from .local_plan import DWAResult, HeldPlan
 from .oscillation import OscillationFlags
 
@@ -813,21 +813,19 @@ class DWAPlanner(HeldPlan):
             if self._stopped(velocity):
                 self.goal_reached = True
                 return DWAResult(goal_reached=True, mode="goal")
-            brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
-            return DWAResult(cmd=(brake(velocity[0], cfg.acc_lim_x), brake(velocity[1], cfg.acc_lim_y),
-                                  brake(velocity[2], cfg.acc_lim_theta)), mode="stop")
+            return DWAResult(cmd=(braked(velocity[0], cfg.acc_lim_x, dt), braked(velocity[1], cfg.acc_lim_y, dt),
+                                  braked(velocity[2], cfg.acc_lim_theta, dt)), mode="stop")
         # Brake the translation as hard as allowed (stopWithAccLimits) and, at the same
         # time, start the turn: vx and vth have separate acceleration limits, so turning
         # while braking over the last centimetres costs no position and saves the
         # stop-then-turn pause of LatchedStopRotateController.
-        brake = lambda v, a: math.copysign(max(0.0, abs(v) - a * dt), v)
-        vx, vy = brake(velocity[0], cfg.acc_lim_x), brake(velocity[1], cfg.acc_lim_y)
+        vx, vy = braked(velocity[0], cfg.acc_lim_x, dt), braked(velocity[1], cfg.acc_lim_y, dt)
         vth = rotation_speed(err, velocity[2], cfg.acc_lim_theta, cfg.max_vel_theta,
                              cfg.min_vel_theta, cfg.yaw_goal_tolerance, dt)
         moving = abs(vx) > EPS or abs(vy) > EPS
         if not self._rotation_is_free(pose, vth, costmap):
             if moving:
-                return DWAResult(cmd=(vx, vy, brake(velocity[2], cfg.acc_lim_theta)), mode="stop")
+                return DWAResult(cmd=(vx, vy, braked(velocity[2], cfg.acc_lim_theta, dt)), mode="stop")
             return DWAResult(ok=False, reason="cannot rotate to the goal heading: the footprint "
                              "would hit an obstacle", mode="rotate")
         if moving:

@@ -97,6 +97,7 @@ import numpy as np
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from .footprint_cost import (COLLIDES, OFF_MAP, _outline_cost, _vertex_cells, bresenham, check_vertex_cells,
                              footprint_cost_reference, world_to_cells)
+from .goal_approach import braked, rotate_to_goal_speed
 from .local_plan import DWAResult, HeldPlan
 from .param_reader import WARNING, Note, ParamError, Schema
 from summit_nav_common.geometry import inverse, transform_points, wrap_angle
@@ -753,11 +754,6 @@ def window_plan(plan, pose, costmap):
     return first, end
 
 
-def sign(v):
-    """base_local_planner's sign: -1 for negative, else +1."""
-    return -1.0 if v < 0.0 else 1.0
-
-
 # -- the planner ----------------------------------------------------------------------------
 class TrajectoryPlanner(HeldPlan):
     """base_local_planner's TrajectoryPlannerROS without ROS (nav_core's BaseLocalPlanner).
@@ -889,8 +885,7 @@ class TrajectoryPlanner(HeldPlan):
         stopped = abs(vth) <= STOPPED_VEL and abs(vx) <= STOPPED_VEL and abs(vy) <= STOPPED_VEL
         if not self.rotating_to_goal and not stopped:
             # stopWithAccLimits: brake as hard as allowed, if that is legal
-            cmd = tuple(sign(v) * max(0.0, abs(v) - a * dt)
-                        for v, a in zip(velocity, (cfg.acc_lim_x, cfg.acc_lim_y, cfg.acc_lim_theta)))
+            cmd = tuple(braked(v, a, dt) for v, a in zip(velocity, (cfg.acc_lim_x, cfg.acc_lim_y, cfg.acc_lim_theta)))
             if self._legal(pose, velocity, cmd, costmap):
                 return DWAResult(cmd=cmd, mode="stop")
             return DWAResult(ok=False, reason="cannot brake at the goal: the braking trajectory collides",
@@ -898,15 +893,8 @@ class TrajectoryPlanner(HeldPlan):
         self.rotating_to_goal = True
         # rotateToGoal: toward the heading, no slower than min_in_place_vel_theta, within the
         # acceleration window and slow enough to stop at the heading
-        if err > 0.0:
-            w = min(cfg.max_vel_theta, max(cfg.min_in_place_vel_theta, err))
-        else:
-            w = max(cfg.min_vel_theta, min(-cfg.min_in_place_vel_theta, err))
-        lo, hi = abs(vth) - cfg.acc_lim_theta * dt, abs(vth) + cfg.acc_lim_theta * dt
-        w = sign(w) * min(max(abs(w), lo), hi)
-        w = sign(w) * min(math.sqrt(2.0 * cfg.acc_lim_theta * abs(err)), abs(w))
-        w = min(cfg.max_vel_theta, max(cfg.min_in_place_vel_theta, w)) if w > 0.0 else \
-            max(cfg.min_vel_theta, min(-cfg.min_in_place_vel_theta, w))
+        w = rotate_to_goal_speed(err, vth, cfg.acc_lim_theta, cfg.max_vel_theta, cfg.min_vel_theta,
+                                 cfg.min_in_place_vel_theta, dt)
         if self._legal(pose, velocity, (0.0, 0.0, w), costmap):
             return DWAResult(cmd=(0.0, 0.0, w), mode="rotate")
         return DWAResult(ok=False, reason="cannot rotate to the goal heading: the footprint would hit an "

@@ -1,6 +1,39 @@
-"""Turning on the spot to the goal heading (base_local_planner's rotateToGoal, time-optimal).
+"""The steps of a local planner at the goal: braking, and turning on the spot to its heading.
+
+Once the robot is within xy_goal_tolerance, base_local_planner's planners stop the
+translation as hard as the acceleration limits allow (stopWithAccLimits: ``braked``) and
+then turn on the spot to the goal heading (rotateToGoal). Two turn laws, one per planner:
+- ``rotate_to_goal_speed``: base_local_planner's rotateToGoal as TrajectoryPlannerROS
+  runs it (a proportional law, no slower than min_in_place_vel_theta, within the
+  acceleration window, capped by sqrt(2 acc |err|));
+- ``rotation_speed``: ours for DWAPlannerROS, time-optimal (bang-bang) with the command's
+  real period (``held_turn``), which keeps a late control loop from overshooting.
 """
 import math
+
+
+def braked(v, acc, dt):
+    """stopWithAccLimits for one axis: the speed [same unit as v] after braking v as hard
+    as acc [per s] allows over dt [s], never past zero."""
+    return math.copysign(max(0.0, abs(v) - acc * dt), v)
+
+
+def rotate_to_goal_speed(err, vth, acc, max_vel, min_vel, min_in_place_vel, dt):
+    """base_local_planner's rotateToGoal: the in-place turn rate [rad/s] toward a heading err
+    [rad] away from vth [rad/s] now: min(max_vel, |err|) but no slower than
+    min_in_place_vel, within vth +- acc dt, no faster than sqrt(2 acc |err|) (able to stop
+    at the heading), then clamped to [min_in_place_vel, max_vel] (min_vel <= -min_in_place_vel
+    for a negative turn)."""
+    if err > 0.0:
+        w = min(max_vel, max(min_in_place_vel, err))
+    else:
+        w = max(min_vel, min(-min_in_place_vel, err))
+    sign = -1.0 if w < 0.0 else 1.0       # base_local_planner's sign(): +1 at 0
+    lo, hi = abs(vth) - acc * dt, abs(vth) + acc * dt
+    w = sign * min(max(abs(w), lo), hi)
+    sign = -1.0 if w < 0.0 else 1.0
+    w = sign * min(math.sqrt(2.0 * acc * abs(err)), abs(w))
+    return min(max_vel, max(min_in_place_vel, w)) if w > 0.0 else max(min_vel, min(-min_in_place_vel, w))
 
 def held_turn(v, w, acc, dt):
     """The angle [rad] a base turning at w [rad/s] covers when v [rad/s] (same sign, >= 0
