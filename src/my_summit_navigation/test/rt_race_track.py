@@ -40,6 +40,11 @@ WALL_LIMIT = 1500.0  # [s]
 
 class RaceTrack(unittest.TestCase):
     def setUp(self):
+        """Subscribes to move_base's goals and results before waiting for anything: the
+        cruise sends its first goal as soon as move_base is up (~0.5 s simulated), and a
+        test that subscribed after waiting for the clock and the truth missed it once
+        move_base started faster (its kernels compiled at build time instead of numba's
+        import): waypoint 0 was never credited."""
         rospy.init_node("race_track_test")
         with open(rospy.get_param("~waypoints_file")) as f:
             route = yaml.safe_load(f)
@@ -47,8 +52,6 @@ class RaceTrack(unittest.TestCase):
         d = route["dock"]
         self.dock = (float(d["x"]), float(d["y"]))
         self.truth = gt.Truth((0.0, 0.0, 0.0))   # the race track's map is its world
-        waits.wait_clock()
-        self.truth.wait()
         self.lock = threading.Lock()
         self.goals = []          # [(sim t, target: waypoint index or 'dock' or None)]
         self.reached = []        # [(waypoint index, truth error [m])] at each SUCCEEDED
@@ -59,6 +62,8 @@ class RaceTrack(unittest.TestCase):
         self.summary = waits.Latest("/auto_navigator/summary", String)
         rospy.Subscriber("/move_base/goal", MoveBaseActionGoal, self.on_goal, queue_size=10)
         rospy.Subscriber("/move_base/result", MoveBaseActionResult, self.on_result, queue_size=10)
+        waits.wait_clock()
+        self.truth.wait()
 
     def target(self, xy):
         if math.hypot(xy[0] - self.dock[0], xy[1] - self.dock[1]) < GOAL_MATCH:
