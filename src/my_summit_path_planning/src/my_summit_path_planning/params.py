@@ -113,7 +113,7 @@ COSTMAP_SCHEMA = Schema.of(CostmapConfig, internal=("layer_params", "notes"),
 # dwa_local_planner's dynamic_reconfigure raises a sample count below the .cfg's minimum, 1
 _SAMPLES = dict(lo=1, clamp=True, note="{where}: '{name}' {value} raised to 1, its least value "
                                        "(dwa_local_planner's dynamic_reconfigure clamps it the same way)")
-_DWA_FIELDS = {k: dict(lo=0.0, lo_open=True) for k in ("controller_frequency", "sim_time", "sim_granularity",
+_DWA_FIELDS = {k: dict(lo=0, lo_open=True) for k in ("controller_frequency", "sim_time", "sim_granularity",
                                                       "angular_sim_granularity", "max_vel_theta", "acc_lim_x",
                                                       "acc_lim_theta")}
 _DWA_FIELDS.update({k: _SAMPLES for k in ("vx_samples", "vy_samples", "vth_samples")})
