@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 from my_summit_mapping.karto import loop_closure as lc
 from my_summit_mapping.karto.optimizer import optimize, optimize_graph
 from my_summit_mapping.karto.pose_graph import Node, PoseGraph, between, compose
-from my_summit_mapping.karto.pose_graph import wrap
+from my_summit_mapping.karto.pose_graph import weighted_mean, wrap
 
 
 def square_loop():
@@ -104,3 +104,16 @@ def test_candidate_chain_skips_near_linked_nodes():
     near = lc.near_linked(g, 30, 4.0, pos)
     assert set(range(0, 26)) <= near
     assert lc.candidate_chain(30, near, 4.0, 10, pos)[0] == []
+
+
+def test_weighted_mean_is_the_product_of_the_gaussians():
+    """open_karto's ComputeWeightedMean: each axis leans to the match that knows it best,
+    and headings either side of +-pi average across it, not through 0."""
+    a = np.array([1.0, 2.0, math.pi - 0.02])
+    b = np.array([1.4, 2.6, -math.pi + 0.04])
+    cov_a = np.diag([0.01, 1.0, 0.01])      # a knows x
+    cov_b = np.diag([1.0, 0.01, 0.01])      # b knows y
+    mean = weighted_mean([a, b], [cov_a, cov_b])
+    assert_allclose(mean[:2], [1.0 + 0.4 * 0.01 / 1.01, 2.6 - 0.6 * 0.01 / 1.01], atol=1e-9)
+    assert_allclose(wrap(mean[2] - (math.pi + 0.01)), 0.0, atol=1e-9)
+    assert_allclose(weighted_mean([a], [cov_a]), a, atol=1e-12)

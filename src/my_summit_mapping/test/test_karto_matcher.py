@@ -121,3 +121,37 @@ def test_window_moves_onto_a_best_pose_at_its_edge():
     moving = cm.ScanMatcher(SEARCH, cm.MatcherSettings(max_recenters=2), 12.0).match(pts, ref, guess)
     assert abs(fixed.pose[0] - true[0]) > 0.05
     assert_allclose(moving.pose[:2], true[:2], atol=0.015)
+
+
+def test_covariance_floor_holds_in_every_direction():
+    """A diagonal corridor's spread is nearly singular: the floor raises its narrow
+    direction, not only the axes, so that its information stays finite."""
+    d = np.array([1.0, 1.0]) / math.sqrt(2.0)
+    spread = 0.04 * np.outer(d, d) + 1e-9 * np.eye(2)
+    floored = cm.floor_eigenvalues(spread, 1e-4)
+    assert_allclose(np.linalg.eigvalsh(floored), [1e-4, 0.04 + 1e-9], rtol=1e-6)
+    assert_allclose(floored @ d, (0.04 + 1e-9) * d, rtol=1e-6)      # the long axis is kept
+
+
+def _corridor_scan():
+    """(reference points seen from along a bare corridor 2 m wide, a scan at the origin)."""
+    corridor = np.array([[-20.0, -1.0, 20.0, -1.0], [20.0, 1.0, -20.0, 1.0]])
+    angles = np.linspace(-0.3, 0.3, 61) + math.pi / 2     # looking at the walls only
+    angles = np.concatenate((angles, angles + math.pi))
+    ref = np.vstack([_to_map((x, 0.0, 0.0), _points((x, 0.0, 0.0), angles, corridor))
+                     for x in np.arange(-1.0, 1.01, 0.1)])
+    return ref, _points((0.0, 0.0, 0.0), angles, corridor)
+
+
+def test_unpenalized_match_flat_to_the_window_edge_tells_little_along_it():
+    """In a corridor the unpenalized response is as high at the window's edge as at its
+    centre: the window cannot show how far that goes, so the variance along the corridor
+    is at least the window's side squared; across it the match stays tight. Penalized
+    (the sequential match, pulled to its prediction) the window's spread is kept."""
+    ref, pts = _corridor_scan()
+    matcher = cm.ScanMatcher(SEARCH, SETTINGS, 12.0)
+    free = matcher.match(pts, ref, np.zeros(3), penalize=False)
+    assert free.covariance[0, 0] >= SEARCH.dimension ** 2
+    assert free.covariance[1, 1] < 0.03 ** 2
+    held = matcher.match(pts, ref, np.zeros(3), penalize=True)
+    assert held.covariance[0, 0] < SEARCH.dimension ** 2

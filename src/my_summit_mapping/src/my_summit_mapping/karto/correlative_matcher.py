@@ -20,8 +20,10 @@ What the code does, in the order it runs:
 3. The estimate is the mean of the poses whose response ties the best. Its covariance
    is the response-weighted spread (Olson 2009, sec. IV-C) of the positions whose
    response (best over headings) lies within COVARIANCE_RESPONSE_BAND of the best, and
-   of the headings at the best position, divided by the best response; never below a
-   tenth of a search cell squared.
+   of the headings at the best position, divided by the best response; in no direction
+   below a tenth of a search cell squared. Unpenalized, a response still within the band
+   at the window's edge spreads beyond it: that axis's variance is raised to the
+   window's side squared (the window cannot tell more).
 4. `ScanMatcher.match`: a coarse search over the whole window at twice the grid
    resolution and `coarse_angle_resolution`, then, when refining, a fine search around
    the coarse estimate at the grid resolution and `fine_search_angle_offset` (open_karto's
@@ -269,6 +271,14 @@ def correlate_reference(grid: LookupGrid, points: np.ndarray, center: np.ndarray
     return out
 
 
+def floor_eigenvalues(cov: np.ndarray, floor: float) -> np.ndarray:
+    """Symmetric cov (k, k) with every eigenvalue raised to at least floor: no direction,
+    not only the axes, ends up tighter than the search can tell (a diagonal corridor's
+    spread is nearly singular)."""
+    w, v = np.linalg.eigh(0.5 * (cov + cov.T))
+    return (v * np.maximum(w, floor)) @ v.T
+
+
 def estimate(responses: np.ndarray, offsets: np.ndarray, angles: np.ndarray, center: np.ndarray,
              resolution: float, step_xy: float, step_angle: float,
              penalty_center: Optional[np.ndarray], settings: MatcherSettings) -> MatchResult:
@@ -300,8 +310,14 @@ def estimate(responses: np.ndarray, offsets: np.ndarray, angles: np.ndarray, cen
     wa = col[near_a]
     cov[2, 2] = float(np.sum(wa * (angles[near_a] - mean_th) ** 2) / wa.sum())
     cov /= best
-    cov[0, 0] = max(cov[0, 0], MIN_VARIANCE_FACTOR * step_xy ** 2)
-    cov[1, 1] = max(cov[1, 1], MIN_VARIANCE_FACTOR * step_xy ** 2)
+    if penalty_center is None:
+        # an unpenalized response still this high at the window's edge goes on beyond it:
+        # the window cannot tell how far, so along that axis the match tells little
+        reach = np.abs(offsets).max(axis=0)
+        for axis in (0, 1):
+            if np.any(near & (np.abs(offsets[:, axis]) >= reach[axis])):
+                cov[axis, axis] = max(cov[axis, axis], (2.0 * reach[axis] * resolution) ** 2)
+    cov[:2, :2] = floor_eigenvalues(cov[:2, :2], MIN_VARIANCE_FACTOR * step_xy ** 2)
     cov[2, 2] = max(cov[2, 2], MIN_VARIANCE_FACTOR * step_angle ** 2)
     return MatchResult(np.array([mean_xy[0], mean_xy[1], math.atan2(math.sin(mean_th), math.cos(mean_th))]),
                        best, cov)

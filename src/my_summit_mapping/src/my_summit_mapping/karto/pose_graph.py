@@ -40,6 +40,18 @@ def between(a, b) -> np.ndarray:
     return compose(inverse(a), b)
 
 
+def weighted_mean(poses, covariances) -> np.ndarray:
+    """Information-weighted mean (3,) of poses (k, 3) with covariances (k, 3, 3): the
+    product of their Gaussians (open_karto's ComputeWeightedMean; headings taken
+    relative to the first, so that they do not straddle +-pi)."""
+    p = np.array(poses, float).reshape(-1, 3)
+    p[:, 2] = p[0, 2] + wrap(p[:, 2] - p[0, 2])
+    info = np.array([information_of(c) for c in covariances])
+    total = info.sum(axis=0)
+    mean = np.linalg.solve(total, np.einsum("kab,kb->a", info, p))
+    return np.array([mean[0], mean[1], float(wrap(mean[2]))])
+
+
 def transform_points(pose, points: np.ndarray) -> np.ndarray:
     """Points (n, 2) of the frame at pose (3,) in the parent frame."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
