@@ -46,7 +46,7 @@ import numpy as np
 
 from . import correlative_matcher as cm
 from . import loop_closure as lc
-from .optimizer import chi2_per_edge, optimize, optimize_graph
+from .optimizer import optimize, optimize_graph
 from .pose_graph import Node, PoseGraph, between, compose, inverse, transform_points, weighted_mean, wrap
 from .render import render
 
@@ -118,10 +118,6 @@ class KartoParams:
                                       "(open_karto's laser RangeThreshold) [m]", 0.0)
     correlation_search_max_recenters: int = _p(0, "times the sequential search window moves onto a best "
                                                   "pose found at its edge (ours; 0: open_karto's fixed window) [-]", 0)
-    optimize_on_links: bool = _p(False, "optimize the graph when a new node's links to older nodes contradict "
-                                        "it (ours; open_karto optimizes at loop closures only)")
-    link_reject_at_window_edge: bool = _p(False, "a near-chain match whose best pose lies on its window's edge "
-                                                 "makes no edge (ours)")
     loop_closure_max_correction: float = _p(3.0, "a loop closure that moves a node farther is "
                                                  "rejected (ours) [m]", 0.0)
 
@@ -309,10 +305,7 @@ class KartoMapper:
         if resumed:
             self._link_resumed(node, match)
         else:
-            n_edges = len(self.graph.edges)
             self._add_edges(node, match)
-            if p.optimize_on_links:
-                self._optimize_if_contradicted(self.graph.edges[n_edges:])
         self._add_running(nid)
         closed = False
         if p.use_scan_matching and p.do_loop_closing and len(pts):
@@ -346,23 +339,6 @@ class KartoMapper:
             # the node goes where all its matches agree best (open_karto's AddEdges)
             node.pose = weighted_mean([node.pose] + [m.pose for m in links],
                                       [match.covariance] + [m.covariance for m in links])
-
-    def _optimize_if_contradicted(self, new_edges) -> None:
-        """Optimize the graph when the new node's edges to older nodes (beyond the previous
-        one) contradict the poses as they stand by more than loop_closure.CHI2_BOUND: the
-        current pose and the running buffer then follow at once, not at the next loop."""
-        links = [e for e in new_edges if e.j - e.i > 1]
-        if not links:
-            return
-        i = np.array([e.i for e in links])
-        j = np.array([e.j for e in links])
-        z = np.array([e.measurement for e in links])
-        info = np.array([e.information for e in links])
-        if float(chi2_per_edge(self.graph.poses(), i, j, z, info).sum()) <= lc.CHI2_BOUND:
-            return
-        result = optimize_graph(self.graph)
-        self.graph.set_poses(result.poses)
-        self.stats["optimizations"] += 1
 
     def _nodes_near(self, xy) -> List[int]:
         """Nodes whose base lies within link_scan_maximum_distance of xy [m]."""
@@ -419,19 +395,11 @@ class KartoMapper:
                 continue
             ref = np.vstack([g.nodes[c].reference_in_map() for c in chain])
             m = self._sequential.match(node.points, ref, node.pose, penalize=False, refine=True)
-            if p.link_reject_at_window_edge and self._at_window_edge(m.pose, node.pose):
-                continue
             if m.response >= p.link_match_minimum_response_fine - cm.RESPONSE_TIE:
                 c = lc.closest_node(g, chain, m.pose)
                 g.add_edge(c, node.id, "sequential", between(g.nodes[c].pose, m.pose), covariance=m.covariance)
                 linked.append(m)
         return linked
-
-    def _at_window_edge(self, pose, center) -> bool:
-        """Whether pose lies within a coarse step of the sequential window's edge around center."""
-        s = self._sequential.search
-        edge = 0.5 * s.dimension - 2.0 * s.resolution
-        return bool(np.max(np.abs(np.asarray(pose[:2]) - np.asarray(center[:2]))) >= edge - 1e-9)
 
     def _add_running(self, nid: int) -> None:
         p = self.params
