@@ -2,14 +2,15 @@
 """Benchmark of frontier exploration (explore.launch) from seeded start poses.
 
 For each run: the simulator on the world with the robot at a seeded random free pose
-(at least CLEARANCE m from any obstacle), slam_gmapping + move_base on the live map +
-explore, until explore says it is over (or the wall-time limit). Reported per run:
+(at least CLEARANCE m from any obstacle), slam_gmapping (or slam_karto, --slam karto) +
+move_base on the live map + explore, until explore says it is over (or the wall-time limit). Reported per run:
 explored share of the reachable free area (my_summit_navigation.frontiers.
 exploration_coverage), simulated and wall time, collisions, why it ended, and the map's
 precision / recall against the true walls with the SLAM trajectory's ATE (the mapping
 benchmark's evaluation).
 
-    bench_explore.py [--world builtin|willow] [--runs 5] [--seed 0] [--speed 3] [--json PATH]
+    bench_explore.py [--world builtin|willow] [--runs 5] [--seed 0] [--speed 3]
+                     [--slam gmapping|karto] [--json PATH]
 
 Each run is a child process (rospy binds one process to one ROS master).
 """
@@ -55,28 +56,38 @@ def start_poses(world_yaml, n, seed):
              float(rng.uniform(-math.pi, math.pi))) for i in pick]
 
 
-def one_run(world_name, pose, speed, out_dir):
+def judged_range(slam):
+    """[m] how far the SLAM node maps, so the walls recall is judged on: gmapping's
+    maxUrange from the project's gmapping_params.yaml, karto's range_threshold."""
+    if slam == "karto":
+        from my_summit_mapping.karto.mapper import KartoParams
+        return KartoParams().range_threshold
+    import yaml
+    from my_summit_mapping.slam_config import SlamConfig
+    with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
+        return SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
+
+
+def one_run(world_name, pose, speed, out_dir, slam="gmapping"):
     """One exploration in this process; returns the result dict."""
     from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for_sim_time_param
     world_yaml = WORLDS[world_name]
     x, y, yaw = pose
-    log = os.path.join(out_dir, f"explore_{world_name}_{x:.1f}_{y:.1f}.log")
+    log = os.path.join(out_dir, f"explore_{world_name}_{slam}_{x:.1f}_{y:.1f}.log")
     args = ["my_summit_navigation", "explore.launch", "sim:=true", f"world:={world_yaml}", f"x:={x}", f"y:={y}",
             f"yaw:={yaw}", f"speed:={speed}", f"save_map:={os.path.splitext(log)[0]}_map",
-            f"debug_dump:={os.path.splitext(log)[0]}_dwa"]
+            f"debug_dump:={os.path.splitext(log)[0]}_dwa", f"slam:={slam}"]
     with RoslaunchSession(args, log=log) as session:
         wait_for_sim_time_param(session)
         import rospy
-        import yaml
         from std_msgs.msg import Bool, String, UInt32
-        from my_summit_mapping.slam_config import SlamConfig
         from my_summit_mapping.tour_recorder import TourRecorder, write_png
         from my_summit_navigation.frontiers import exploration_coverage
         from summit_nav_common.map_io import load_map
         from summit_xl_sim.sim import LaserParams
         from summit_xl_sim.world import World
         rospy.init_node("bench_explore", anonymous=True, disable_signals=True)
-        rec = TourRecorder()
+        rec = TourRecorder(f"slam_{slam}")
         st = {"done": False, "summary": None, "coll": 0}
         rospy.Subscriber("/explore/done", Bool, lambda m: st.update(done=m.data), queue_size=1)
         rospy.Subscriber("/explore/summary", String, lambda m: st.update(summary=m.data), queue_size=1)
@@ -102,13 +113,11 @@ def one_run(world_name, pose, speed, out_dir):
         slam = np.asarray(m.data, np.int8).reshape(m.info.height, m.info.width)
         cov = exploration_coverage(world_map.data, world_map.resolution, world_map.origin[:2], pose, slam,
                                    m.info.resolution, (m.info.origin.position.x, m.info.origin.position.y))
-        with open(os.path.join(WS, "src", "my_summit_mapping", "config", "gmapping_params.yaml")) as f:
-            max_urange = SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
         world = World.from_yaml(world_yaml)
-        quality = rec.evaluate(world, max_urange, LaserParams())
+        quality = rec.evaluate(world, judged_range(slam), LaserParams())
         # the map judged against the true walls, with the true and SLAM trajectories
         write_png(quality, os.path.splitext(log)[0] + "_judged.png", world)
-    return {"world": world_name, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
+    return {"world": world_name, "slam": slam, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
             "finished": bool(st["done"]), "summary": st["summary"], "sim_s": round(sim_t, 1),
             "wall_s": round(wall_t, 1), "collisions": int(st["coll"]), "ate_m": round(quality["ate_m"], 4),
             "precision": round(quality["precision"], 4), "recall": round(quality["recall"], 4)}
@@ -120,6 +129,7 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--speed", type=float, default=3.0)
+    ap.add_argument("--slam", choices=("gmapping", "karto"), default="gmapping", help="the SLAM node explore.launch runs")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--child", nargs=3, type=float, help=argparse.SUPPRESS)
     ap.add_argument("--child-out", help=argparse.SUPPRESS)
@@ -127,7 +137,7 @@ def main(argv=None):
     out_dir = os.path.join(WS, "output", "bench_explore")
     os.makedirs(out_dir, exist_ok=True)
     if args.child:
-        res = one_run(args.world, tuple(args.child), args.speed, out_dir)
+        res = one_run(args.world, tuple(args.child), args.speed, out_dir, args.slam)
         with open(args.child_out, "w") as f:
             json.dump(res, f)
         return 0
@@ -137,7 +147,7 @@ def main(argv=None):
         if os.path.exists(tmp):
             os.remove(tmp)
         subprocess.run([sys.executable, os.path.abspath(__file__), "--world", args.world, "--speed", str(args.speed),
-                        "--child", *map(str, pose), "--child-out", tmp])
+                        "--slam", args.slam, "--child", *map(str, pose), "--child-out", tmp])
         if os.path.exists(tmp):
             with open(tmp) as f:
                 r = json.load(f)
@@ -148,7 +158,7 @@ def main(argv=None):
         runs.append(r)
         print(json.dumps(r), flush=True)
     covs = [r["coverage"] for r in runs]
-    summary = {"world": args.world, "runs": runs, "coverage_min": min(covs), "coverage_median": float(np.median(covs)),
+    summary = {"world": args.world, "slam": args.slam, "runs": runs, "coverage_min": min(covs), "coverage_median": float(np.median(covs)),
                "all_finished": all(r["finished"] for r in runs),
                "collisions": sum(r.get("collisions", 0) for r in runs),
                "sim_s_median": float(np.median([r.get("sim_s", 0.0) for r in runs]))}
