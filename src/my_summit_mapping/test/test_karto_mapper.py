@@ -204,6 +204,29 @@ def test_map_has_the_corridor_walls(closed_and_open):
     assert 100 in [cell(-9.3, -HALF + 2 + d) for d in np.arange(-0.3, 0.31, 0.05)]
 
 
+def test_map_drawn_as_the_node_draws_it_equals_a_fresh_cast(loop_data):
+    """The node asks for a map every few seconds; the mapper casts again only the nodes
+    added since, while the loop closures in between move every pose and force a whole
+    cast. Each map equals render() of all the graph's scans from its current poses."""
+    from my_summit_mapping.karto.render import render
+    truth, odom, scans = loop_data
+    mapper = KartoMapper(KartoParams(), LASER)
+    maps = closures = 0
+    for k, (r, o) in enumerate(zip(scans, odom)):
+        res = mapper.add_scan(r, o, float(k))
+        closures += bool(res is not None and res.loop_closed)
+        if k % 7 == 0 or (res is not None and res.loop_closed):
+            ranges = np.array([n.ranges for n in mapper.graph.nodes], float)
+            ranges[~(ranges >= LASER.range_min)] = np.nan
+            fresh = render(mapper.graph.poses(), ranges, ANGLES, LASER.mount, mapper.params.range_threshold,
+                           LASER.range_max, 0.1)
+            grid, origin = mapper.occupancy_grid(0.1)
+            assert_array_equal(grid, fresh[0])
+            assert origin == fresh[1]
+            maps += 1
+    assert closures >= 1 and maps > 10
+
+
 # ------------------------------------------------------------------ serialization
 def test_save_load_round_trip_and_continue(tmp_path, loop_data):
     truth, odom, scans = loop_data

@@ -48,7 +48,7 @@ from . import correlative_matcher as cm
 from . import loop_closure as lc
 from .optimizer import optimize, optimize_graph
 from .pose_graph import Node, PoseGraph, between, compose, inverse, transform_points, weighted_mean, wrap
-from .render import render
+from .render import Renderer
 
 ODOMETRY_COVARIANCE = (0.05 ** 2, 0.05 ** 2, math.radians(3.0) ** 2)  # per-step odometry edge
                                    # covariance when no scan match is available [m^2, m^2, rad^2]
@@ -218,6 +218,7 @@ class KartoMapper:
         self._loop = cm.ScanMatcher(cm.SearchSpace(p.loop_search_space_dimension, p.loop_search_space_resolution,
                                                    p.loop_search_space_smear_deviation), settings, p.range_threshold)
         self.graph = PoseGraph()
+        self._renderer = Renderer()    # the map, cast again only where poses changed
         self._running: List[int] = []
         self._scan_count = 0
         self._last_odom: Optional[np.ndarray] = None
@@ -508,11 +509,13 @@ class KartoMapper:
             raise ValueError(f"resolution must be > 0, got {resolution!r}")
         if not self.graph.nodes:
             return np.full((1, 1), -1, np.int8), (0.0, 0.0)
-        ranges = np.array([n.ranges for n in self.graph.nodes], float)
-        with np.errstate(invalid="ignore"):
-            ranges[~(ranges >= self.laser.range_min)] = np.nan
-        return render(self.graph.poses(), ranges, self._angles, self._mount, self.params.range_threshold,
-                      self.laser.range_max, res)
+        def ranges(k0):
+            r = np.array([n.ranges for n in self.graph.nodes[k0:]], float).reshape(-1, len(self._angles))
+            with np.errstate(invalid="ignore"):
+                r[~(r >= self.laser.range_min)] = np.nan
+            return r
+        return self._renderer.render(self.graph.poses(), ranges, self._angles, self._mount,
+                                     self.params.range_threshold, self.laser.range_max, res)
 
     # ------------------------------------------------------------ persistence
     def save(self, path: str) -> None:

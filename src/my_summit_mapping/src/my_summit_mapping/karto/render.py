@@ -5,9 +5,14 @@ beam frees the cells it passes and hits its end cell; a cell is occupied when hi
 passes exceeds `occupancy_threshold` (0.1) and unknown while fewer than
 `min_pass_through` (2) beams crossed it; a reading beyond the range threshold frees cells
 up to it and marks nothing. The ray casting is the project's (grid.PatchGrid.integrate_scan,
-Bresenham lines as gmapping's registerScan) into a fresh grid.
+Bresenham lines as gmapping's registerScan).
+
+open_karto casts every scan anew for each map; `Renderer` keeps its counts while the
+poses it cast from stay as they were and casts only the nodes added since, so a map
+between loop closures costs the new scans, not the whole graph. Integration runs in node
+order either way, so the counts (and the map) are those of a fresh cast.
 """
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -26,10 +31,35 @@ def render(poses: np.ndarray, ranges: np.ndarray, beam_angles: np.ndarray, mount
     range_max: no return, skipped); beam_angles (n,) in the laser frame [rad]; mount
     (x, y, yaw) of the laser in the base frame. Row 0 is the lowest y (OccupancyGrid order).
     """
-    grid = PatchGrid(resolution, PatchPool(64))
-    for pose, r in zip(np.asarray(poses, float), np.asarray(ranges, float)):
-        laser = compose(pose, mount)
-        grid.integrate_scan(laser, r, beam_angles, range_threshold, range_max)
+    return Renderer().render(poses, ranges, beam_angles, mount, range_threshold, range_max, resolution)
+
+
+class Renderer:
+    """render() that casts again only what changed since its last call (module docstring)."""
+
+    def __init__(self):
+        self._grid: Optional[PatchGrid] = None
+        self._poses = np.zeros((0, 3))     # the poses cast into _grid, in node order
+        self._setup = None                 # what else the counts depend on
+
+    def render(self, poses, ranges, beam_angles, mount, range_threshold, range_max, resolution):
+        """As render(); ranges may be a callable k0 -> ranges (N - k0, n) of nodes k0.. (so
+        that the caller need not build the rows already cast)."""
+        poses = np.asarray(poses, float)
+        setup = (float(resolution), float(range_threshold), float(range_max), tuple(np.asarray(mount, float)),
+                 np.asarray(beam_angles, float).tobytes())
+        done = len(self._poses)
+        if (self._grid is None or setup != self._setup or done > len(poses)
+                or not np.array_equal(poses[:done], self._poses)):
+            self._grid, self._setup, done = PatchGrid(resolution, PatchPool(64)), setup, 0
+        new = ranges(done) if callable(ranges) else np.asarray(ranges, float)[done:]
+        for pose, r in zip(poses[done:], np.asarray(new, float)):
+            self._grid.integrate_scan(compose(pose, mount), r, beam_angles, range_threshold, range_max)
+        self._poses = poses.copy()
+        return _occupancy(self._grid, resolution)
+
+
+def _occupancy(grid: PatchGrid, resolution: float):
     b = grid.bounds()
     if b is None:
         return np.full((1, 1), UNKNOWN, np.int8), (0.0, 0.0)
