@@ -418,7 +418,10 @@ def test_a_peer_node_is_named_by_its_package_never_by_a_path_of_the_machine_that
     assert "/tmp/" not in page
     assert ("--move-base $PEER_WS/devel/lib/move_base/move_base --move-base-setup $PEER_WS/devel/setup.bash`"
             " ($PEER_WS: the catkin workspace the real nodes were built in)") in page
-    assert bench_report.portable_command("tools/bench.py --only laser") == "tools/bench.py --only laser"
+    assert bench_report.portable_command("tools/bench.py --only laser") == ("tools/bench.py --only laser", [])
+    command, notes = bench_report.portable_command(
+        "tools/bench.py --only memory --real-stack-json /work/x/out/real_stack_2goals.json")
+    assert command == "tools/bench.py --only memory --real-stack-json $REAL_STACK_JSON" and len(notes) == 1
 
 
 def test_planning_core_json_keys_are_the_ones_the_page_reads():

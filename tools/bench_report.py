@@ -1003,22 +1003,34 @@ def table(rows):
     return lines
 
 
-# An executable or setup.bash of another catkin workspace (a peer node's) in a command line
-PEER_WORKSPACE_PATH = re.compile(r"(?<![\w$])/[^\s'\"]*?/(devel|install)(?=/)")
+# Paths of one machine in a command line, as the page writes them, and what each stands for:
+# an executable or setup.bash of another catkin workspace (a peer node's), and the real
+# stack's figures the memory section reads (real_stack_rss.py's output)
+MACHINE_PATHS = (
+    (re.compile(r"(?<![\w$])/[^\s'\"]*?/(devel|install)(?=/)"), r"$PEER_WS/\1",
+     "$PEER_WS: the catkin workspace the real nodes were built in"),
+    (re.compile(r"(--real-stack-json[ =])[^\s'\"]+"), r"\1$REAL_STACK_JSON",
+     "$REAL_STACK_JSON: real_stack_rss.py's JSON of the real nodes on the same goals"),
+)
 
 
 def portable_command(command):
-    """The command with another workspace's location (where a peer node was built on the
-    machine that ran it) written as $PEER_WS: the page names such nodes by package and
-    version (node_label), and a reader's workspace is elsewhere."""
-    return PEER_WORKSPACE_PATH.sub(r"$PEER_WS/\1", command)
+    """(command, notes): the command with each path of the machine that ran it
+    (MACHINE_PATHS) written as a name, and what each name written stands for: the page
+    names real nodes by package and version (node_label), and a reader's files are elsewhere."""
+    notes = []
+    for pattern, name, note in MACHINE_PATHS:
+        command, n = pattern.subn(name, command)
+        if n:
+            notes.append(note)
+    return command, notes
 
 
 def context_line(rec):
     m, load = rec["machine"], rec["load_average"]
     cpu = m.get("cpu_model") or "CPU model unknown"
-    command = portable_command(rec["command"])
-    peer_ws = " ($PEER_WS: the catkin workspace the real nodes were built in)" if command != rec["command"] else ""
+    command, notes = portable_command(rec["command"])
+    peer_ws = f" ({'; '.join(notes)})" if notes else ""
     return (f"Commit `{rec['commit']}`, {rec['date']}, {m['cores']} cores ({cpu}), "
             f"load average during the run {load['mean_1min']:.2f} mean / {load['max_1min']:.2f} max "
             f"(1 min; {load['start'][0]:.2f} at start, {load['end'][0]:.2f} at end), "
