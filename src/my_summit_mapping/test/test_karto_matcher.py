@@ -4,6 +4,7 @@ along a corridor."""
 import math
 
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from my_summit_mapping.karto import correlative_matcher as cm
@@ -155,3 +156,23 @@ def test_unpenalized_match_flat_to_the_window_edge_tells_little_along_it():
     assert free.covariance[1, 1] < 0.03 ** 2
     held = matcher.match(pts, ref, np.zeros(3), penalize=True)
     assert held.covariance[0, 0] < SEARCH.dimension ** 2
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_grid_kernels_equal_their_oracles(seed):
+    """csrc/correlation_grid.c (the smeared stamp, the branch and bound's pooled grid)
+    against the NumPy references, on random grids with hits at the stamp's margin."""
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(20, 60, size=2)
+    kernel = cm.smear_kernel(0.01, rng.uniform(0.0, 0.03))
+    half = kernel.shape[0] // 2
+    ys, xs = rng.integers(half, h - half, 40), rng.integers(half, w - half, 40)
+    hits = np.unique(ys * w + xs)
+    base = rng.integers(0, 60, size=h * w).astype(np.uint8)
+    fast, slow = base.copy(), base.copy()
+    cm._stamp(fast, hits, kernel, int(w))
+    cm._stamp_reference(slow, hits, kernel, int(w))
+    assert_array_equal(fast, slow)
+    values = rng.integers(0, 256, size=(h, w)).astype(np.uint8)
+    for extent in (1, 3, 15, int(max(h, w)) + 2):
+        assert_array_equal(cm._box_max(values, extent), cm._box_max_reference(values, extent))

@@ -54,6 +54,9 @@ SIGNATURES = {
     "snc_likelihoods": (None, [_f32, _int64] + [_i64] * 6 + [_f64, _int64, _f64, _f64, _f64, _int64, ctypes.c_double,
                                                      ctypes.c_double, ctypes.c_double, _int64, ctypes.c_double,
                                                      _f64, _f64]),
+    # csrc/correlation_grid.c (my_summit_mapping.karto.correlative_matcher)
+    "snc_stamp_max": (None, [_u8, _i64, _int64, _u8, _int64, _int64]),
+    "snc_box_max": (ctypes.c_int, [_u8, _int64, _int64, _int64, _u8]),
     # csrc/global_planner.c (my_summit_path_planning.global_planner)
     "snc_gp_expand": (ctypes.c_int, [_f64, _int64, _int64, _i64, _f64, _int64, _int64, _double, ctypes.c_int, _f64,
                                      ctypes.POINTER(_int64)]),

@@ -41,9 +41,8 @@ import math
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
-import cv2
 import numpy as np
-from summit_nav_common.jit import njit
+from summit_nav_common.native import library
 
 GRID_OCCUPIED = 100              # value of a hit cell in the lookup grid [-]
 DISTANCE_PENALTY_GAIN = 0.2      # open_karto's gain on the squared offset / variance [-]
@@ -157,21 +156,41 @@ def smear_kernel(resolution: float, smear_deviation: float) -> np.ndarray:
 
 def _stamp(flat: np.ndarray, hits: np.ndarray, kernel: np.ndarray, width: int) -> None:
     """flat[c + k] = max(flat[c + k], kernel[k]) for every hit cell c (flat indices) and
-    kernel offset k (compiled: hits x kernel cells of small work each)."""
+    kernel offset k (compiled, csrc/correlation_grid.c: hits x kernel cells of small work
+    each; _stamp_reference is its oracle)."""
+    library().snc_stamp_max(flat, np.ascontiguousarray(hits, np.int64), len(hits),
+                            np.ascontiguousarray(kernel, np.uint8), kernel.shape[0] // 2, int(width))
+
+
+def _stamp_reference(flat: np.ndarray, hits: np.ndarray, kernel: np.ndarray, width: int) -> None:
+    """_stamp in NumPy (the tests' oracle)."""
     half = kernel.shape[0] // 2
-    _stamp_kernel(flat, hits, kernel, half, width)
+    for dy in range(kernel.shape[0]):
+        for dx in range(kernel.shape[1]):
+            idx = hits + (dy - half) * width + (dx - half)
+            flat[idx] = np.maximum(flat[idx], kernel[dy, dx])
 
 
-@njit(cache=True, nogil=True)
-def _stamp_kernel(flat, hits, kernel, half, width):
-    size = 2 * half + 1
-    for c in hits:
-        for dy in range(size):
-            row = c + (dy - half) * width - half
-            for dx in range(size):
-                v = kernel[dy, dx]
-                if v > flat[row + dx]:
-                    flat[row + dx] = v
+def _box_max(values: np.ndarray, extent: int) -> np.ndarray:
+    """uint8 (H, W): out[y, x] = max of values[y:y + extent, x:x + extent], beyond the grid
+    0 (compiled, csrc/correlation_grid.c; _box_max_reference is its oracle)."""
+    src = np.ascontiguousarray(values, np.uint8)
+    out = np.empty_like(src)
+    if library().snc_box_max(src, src.shape[0], src.shape[1], int(extent), out) != 0:
+        raise MemoryError(f"box maximum of a {src.shape[0]} x {src.shape[1]} grid: no memory for its buffer")
+    return out
+
+
+def _box_max_reference(values: np.ndarray, extent: int) -> np.ndarray:
+    """_box_max in NumPy (the tests' oracle)."""
+    h, w = values.shape
+    padded = np.zeros((h + extent - 1, w + extent - 1), np.uint8)
+    padded[:h, :w] = values
+    out = np.zeros((h, w), np.uint8)
+    for dy in range(extent):
+        for dx in range(extent):
+            out = np.maximum(out, padded[dy:dy + h, dx:dx + w])
+    return out
 
 
 def _penalties(dist2: np.ndarray, angle2: np.ndarray, s: MatcherSettings) -> Tuple[np.ndarray, np.ndarray]:
@@ -227,8 +246,7 @@ def correlate_bounded(grid: LookupGrid, points: np.ndarray, center: np.ndarray, 
         return out
     b = BLOCK_POSITIONS
     extent = (b - 1) * step + 1                                        # cells a block's shifts span
-    pooled = cv2.dilate(grid.values, np.ones((extent, extent), np.uint8), anchor=(0, 0),
-                        borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    pooled = _box_max(grid.values, extent)
     base = grid.cells_of(_turned(points, center, angles))             # (A, n)
     w = grid.values.shape[1]
     n_blocks = -(-side // b)
