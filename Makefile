@@ -12,7 +12,7 @@ SOURCE_ROS := $(if $(ROS_SETUP),source $(ROS_SETUP) &&,)
 SOURCE_WS := $(SOURCE_ROS) source $(WS)/devel/setup.bash &&
 SETUP_STAMP := build/.setup-done
 BUILD_STAMP := devel/setup.bash
-PY_SOURCES := $(shell find src -name '*.py' -o -name 'CMakeLists.txt' -o -name 'package.xml' -o -name '*.srv' -o -name '*.msg' 2>/dev/null)
+SOURCES := $(shell find src -name '*.py' -o -name 'CMakeLists.txt' -o -name 'package.xml' -o -name '*.srv' -o -name '*.msg' -o -name '*.c' -o -name '*.h' 2>/dev/null)
 
 .PHONY: all setup build test unit integration demo bench bench-page frames clean world e2e-seeds
 all: build
@@ -24,7 +24,7 @@ setup:
 
 build: setup $(BUILD_STAMP)
 
-$(BUILD_STAMP): $(PY_SOURCES)
+$(BUILD_STAMP): $(SOURCES)
 	@$(SOURCE_ROS) catkin_make -C $(WS) -DPYTHON_EXECUTABLE=$(PYTHON) -DCATKIN_ENABLE_TESTING=ON -DCMAKE_BUILD_TYPE=Release > build.log 2>&1 \
 	  || { tail -40 build.log; echo "catkin_make failed: see build.log"; exit 1; }
 	@touch $(BUILD_STAMP)
