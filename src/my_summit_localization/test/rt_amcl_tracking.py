@@ -4,7 +4,12 @@
 amcl.launch (map_server + amcl, initial pose 0, 0, 0 = the spawn pose) with tour.launch:
 every 0.1 s of sim time the pose amcl's tf gives (map -> base_footprint at the stamp of
 the latest ground truth) is compared with ground truth taken into the map frame; after
-the first 5 s the position and yaw RMSE must be within ~pos_rmse_tol / ~yaw_rmse_tol_deg.
+the first 5 s the position and yaw RMSE must be within ~pos_rmse_tol / ~yaw_rmse_tol_deg,
+and at most 5 % of the samples may find no tf at their stamp.
+
+CI at fdbd1ba (two rostests at a time; the simulator at 3.45x of 4x) failed with 44 of 708
+lookups missed: each waited 0.5 s of sim time, 0.15 s wall, for a transform still queued
+behind a starved node. A lookup now waits TF_WAIT; a miss says why.
 Also: amcl_pose carries a real covariance, particlecloud is published to a subscriber,
 and the map -> odom transform is post-dated (stamp ahead of the clock).
 """
@@ -26,6 +31,7 @@ from summit_nav_common.testing.waits import Latest, sleep_sim, wait_clock, wait_
 
 SETTLE = 5.0          # [s] sim: errors counted after this
 SAMPLE = 0.1          # [s] sim: sampling period
+TF_WAIT = 2.0         # [s] sim: how long a sample waits for amcl's tf at its stamp
 
 
 class AmclTracking(unittest.TestCase):
@@ -50,7 +56,7 @@ class AmclTracking(unittest.TestCase):
         m_in_w = map_in_world()
         wait_clock()
         amcl_pose.wait(120.0)
-        pos_err, yaw_err, missed, bias = [], [], 0, [0.0, 0.0]
+        pos_err, yaw_err, missed, bias, why = [], [], 0, [0.0, 0.0], []
         t_start = rospy.Time.now().to_sec()
         while not (done.msg is not None and done.msg.data):
             if rospy.Time.now().to_sec() - t_start > max_sim:
@@ -60,10 +66,13 @@ class AmclTracking(unittest.TestCase):
             if gt.header.stamp.to_sec() < SETTLE:
                 continue
             try:
-                t = buf.lookup_transform("map", "base_footprint", gt.header.stamp, rospy.Duration(0.5))
+                # TF_WAIT: amcl's tf for this stamp may still be on its way when a busy machine
+                # starves amcl or this node; what counts is that it comes, not how soon.
+                t = buf.lookup_transform("map", "base_footprint", gt.header.stamp, rospy.Duration(TF_WAIT))
             except (tf2_ros.LookupException, tf2_ros.ConnectivityException,
-                    tf2_ros.ExtrapolationException):
+                    tf2_ros.ExtrapolationException) as e:
                 missed += 1
+                why.append(f"t={gt.header.stamp.to_sec():.2f} {type(e).__name__}: {e}")
                 continue
             est = (t.transform.translation.x, t.transform.translation.y, yaw_of(t.transform.rotation))
             gt_map = truth_in_map(gt, m_in_w)
@@ -74,7 +83,7 @@ class AmclTracking(unittest.TestCase):
             yaw_err.append(e_yaw)
         n = len(pos_err)
         self.assertGreater(n, 200, f"too few samples ({n}, {missed} tf lookups failed)")
-        self.assertLess(missed, 0.05 * (n + missed), f"{missed} of {n + missed} tf lookups failed")
+        self.assertLess(missed, 0.05 * (n + missed), f"{missed} of {n + missed} tf lookups failed: " + "; ".join(why[:5]))
         rmse_pos = math.sqrt(sum(e * e for e in pos_err) / n)
         rmse_yaw = math.sqrt(sum(e * e for e in yaw_err) / n)
         rospy.loginfo(f"amcl tracking: position RMSE {rmse_pos:.4f} m (max {max(pos_err):.3f}), "
