@@ -659,6 +659,14 @@ def rows_stack_cpu(res):
         row("... peak RSS per node (median)",
             ", ".join(f"{k} {rss[k]:.0f} MB" for k in ("map_server", "amcl", "move_base", "summit_xl_sim")),
             {"peak_rss_mb": rss}),
+    ]
+    faults = m.get("minor_faults_per_sim_s")
+    if faults:
+        out.append(row("... minor page faults per simulated s (median): pages handed back to the kernel and "
+                       "taken again, each mapped and zeroed at the node's CPU cost",
+                       ", ".join(f"{k} {faults[k]:,.0f}" for k in ("map_server", "amcl", "move_base", "summit_xl_sim")),
+                       {"minor_faults_per_sim_s": faults}))
+    out += [
         row(f"... goals reached (worst run) / collisions (all runs); simulated time of the run (median)",
             f"{res['reached_min']} of {goals} / {res['collisions']}; {m['sim_s']:.0f} s",
             {"reached_min": res["reached_min"], "collisions": res["collisions"], "sim_s": m["sim_s"]},

@@ -16,6 +16,8 @@ the last goal's end, "while navigating":
                   utime + stime of /proc/<pid>/stat over the window / simulated time
                   (/clock); sum: map_server + amcl + move_base
   peak_rss_mb     per node, VmHWM at the window's end [MB]
+  minor_faults_per_sim_s  per node: pages the kernel mapped and zeroed for it (memory
+                  returned to the system and taken again costs CPU here)
   reached         goals move_base reported succeeded; collisions (the simulator's
                   /collisions count); the final position error by ground truth: so a
                   cheaper node that drives worse shows
@@ -117,7 +119,7 @@ def draw_goals(n, seed):
 def run_once(index, args, tmp):
     import rospy
     from summit_nav_common.testing.roslaunch_session import (RoslaunchSession, cpu_seconds, find_node_pid,
-                                                             peak_rss_mb, thread_cpu, wait_for,
+                                                             minor_faults, peak_rss_mb, thread_cpu, wait_for,
                                                              wait_for_sim_time_param)
     prefix = ""
     out_prefix = None
@@ -147,6 +149,7 @@ def run_once(index, args, tmp):
         load0 = os.getloadavg()
         sim0 = rospy.Time.now().to_sec()
         cpu0 = {n: cpu_seconds(p) for n, p in pids.items()}
+        flt0 = {n: minor_faults(p) for n, p in pids.items()}
         thr0 = thread_cpu(pids["move_base"])
         wall0 = time.monotonic()
         results = []
@@ -168,6 +171,7 @@ def run_once(index, args, tmp):
                   f"{truth.collisions}", flush=True)
         sim1 = rospy.Time.now().to_sec()
         cpu1 = {n: cpu_seconds(p) for n, p in pids.items()}
+        flt1 = {n: minor_faults(p) for n, p in pids.items()}
         thr1 = thread_cpu(pids["move_base"])
         wall1 = time.monotonic()
         rss = {n: peak_rss_mb(p) for n, p in pids.items()}
@@ -176,6 +180,7 @@ def run_once(index, args, tmp):
     sim_s = sim1 - sim0
     cpu = {n: (cpu1[n] - cpu0[n]) / sim_s for n in pids}
     cpu["sum"] = sum(cpu[n] for n in NODES)
+    faults = {n: round((flt1[n] - flt0[n]) / sim_s) for n in pids}
     names = {}
     if out_prefix and os.path.exists(out_prefix + ".threads.json"):
         with open(out_prefix + ".threads.json") as f:
@@ -186,6 +191,7 @@ def run_once(index, args, tmp):
         threads[key] = round(threads.get(key, 0.0) + c - thr0.get(tid, 0.0), 3)
     reached = [r for r in results if r["state"] == "SUCCEEDED"]
     return dict(run=index, sim_s=sim_s, wall_s=wall1 - wall0, cpu_per_sim_s=cpu, peak_rss_mb=rss,
+                minor_faults_per_sim_s=faults,
                 goals=len(goals), reached=len(reached), collisions=int(collisions),
                 final_error_m_median=statistics.median(r["final_error_m"] for r in reached) if reached else None,
                 goal_results=results, threads={k: v for k, v in sorted(threads.items(), key=lambda kv: -kv[1])
@@ -268,6 +274,7 @@ def main():
         print(f"run {i}: CPU s per simulated s: " + ", ".join(f"{n} {c[n]:.3f}" for n in NODES)
               + f", sum {c['sum']:.3f} (simulator {c[SIM_NODE]:.3f}) over {r['sim_s']:.1f} s simulated "
               f"({r['wall_s']:.1f} s wall); peak RSS " + ", ".join(f"{n} {r['peak_rss_mb'][n]:.0f} MB" for n in NODES)
+              + "; minor page faults per simulated s " + ", ".join(f"{n} {r['minor_faults_per_sim_s'][n]}" for n in NODES)
               + f"; reached {r['reached']} of {r['goals']}, collisions {r['collisions']}; load {r['load_average']}",
               flush=True)
         print("   move_base threads (CPU s): " + ", ".join(f"{k} {v:.2f}" for k, v in r["threads"].items()), flush=True)
@@ -277,6 +284,8 @@ def main():
     keys = NODES + ("sum", SIM_NODE)
     median = {"cpu_per_sim_s": {k: statistics.median(r["cpu_per_sim_s"][k] for r in runs) for k in keys},
               "peak_rss_mb": {k: statistics.median(r["peak_rss_mb"][k] for r in runs) for k in NODES + (SIM_NODE,)},
+              "minor_faults_per_sim_s": {k: statistics.median(r["minor_faults_per_sim_s"][k] for r in runs)
+                                         for k in NODES + (SIM_NODE,)},
               "reached": statistics.median(r["reached"] for r in runs),
               "sim_s": statistics.median(r["sim_s"] for r in runs)}
     result = dict(runs=runs, median=median, goals=args.goals, seed=args.seed, speed=args.speed,
