@@ -87,6 +87,7 @@ from .oscillation import OscillationFlags
 
 EPS = 1e-5                 # velocity comparison slack [m/s or rad/s]
 MAX_SIM_STEPS = 200        # cap on forward-simulation steps per trajectory [-]
+BLOCK_BYTES = 192 * 1024   # a block of samples' float64 (rows, steps) array, at most (> 1 row)
 NEAR_GOAL_FACTOR = 1.0     # forward-point terms off within this many forward_point_distance of the goal
 PRUNE_SEARCH_ARC = 2.0     # [m] of plan searched ahead for the point nearest the robot (prunePlan)
 MAX_LATENCY = 1.0          # [s] cap on the control latency braking plans for
@@ -261,11 +262,13 @@ class Rollouts:
         return self.x.shape[1]
 
 
-def rollouts(cfg, pose, samples, costmap, clearance, latency):
+def rollouts(cfg, pose, samples, costmap, clearance, latency, n_steps=None):
     """Rollouts of samples (N, 3) from pose; clearance(x, y, th) -> [m] of poses;
-    latency [s]: how long this cycle's command stays in force."""
+    latency [s]: how long this cycle's command stays in force; n_steps: the cycle's step
+    count (simulation_steps of all its samples) when these are a block of them."""
     horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
-    n_steps = simulation_steps(cfg, samples, horizon)
+    if n_steps is None:
+        n_steps = simulation_steps(cfg, samples, horizon)
     dt = horizon / n_steps
     n_score = max(1, min(n_steps, int(round(cfg.sim_time / dt))))
     x, y, th = simulate(pose, samples, dt, n_steps)
@@ -361,13 +364,23 @@ def check_horizon(cfg, samples, ro, k, final, latency):
 @dataclass
 class Verdict:
     """Which samples (N,) bool are admissible (valid) and which constraint rejected the
-    others (a sample may fail several)."""
+    others (a sample may fail several); in escape mode also those boxed_in falls back on
+    (backing, creeping)."""
 
     valid: np.ndarray
     collides: np.ndarray
     leaves: np.ndarray
     oscillates: np.ndarray
     too_fast: np.ndarray
+    backing: np.ndarray = None
+    creeping: np.ndarray = None
+
+    @staticmethod
+    def join(parts):
+        """One Verdict of the blocks' Verdicts, in sample order."""
+        return Verdict(*(None if getattr(parts[0], f.name) is None
+                         else np.concatenate([getattr(p, f.name) for p in parts])
+                         for f in dataclasses.fields(Verdict)))
 
 
 def _lowest(clearance, until, next_clear):
@@ -407,7 +420,8 @@ def escape_admissibility(policy, floor, c0, v_now, samples, ro, k, n_check, n_br
     when it is no faster than now. Reversing must regain policy.back_out(c0) by the end
     of sim_time or end nearer the goal along the plan. Boxed in (nothing admissible),
     reversing that loses nothing is admitted, and failing that a slow reversing move
-    that regains policy.creep_back(c0) by the time it could stop.
+    that regains policy.creep_back(c0) by the time it could stop (boxed_in, over all the
+    cycle's samples).
     """
     vx = samples[:, 0]
     rows = np.arange(len(samples))
@@ -434,14 +448,20 @@ def escape_admissibility(policy, floor, c0, v_now, samples, ro, k, n_check, n_br
     along = _along_plan(scene.togo, scene.dist_path, scene.costmap, pose, ro.x[:, n], ro.y[:, n])
     collides = ~((vx >= 0.0) | (ro.clearance[:, n] >= policy.back_out(c0)) | along) | loses | hits
     valid = ~(collides | leaves | oscillates | too_fast)
-    if not valid.any():
-        backing = (vx < 0.0) & ~(loses | hits) & ~(leaves | oscillates | too_fast)
-        if not backing.any():
-            backing = creeps_back & ~(leaves | oscillates | too_fast)
-        if backing.any():
-            valid = backing
-            collides = collides & ~backing
-    return Verdict(valid, collides, leaves, oscillates, too_fast)
+    backing = (vx < 0.0) & ~(loses | hits) & ~(leaves | oscillates | too_fast)
+    creeping = creeps_back & ~(leaves | oscillates | too_fast)
+    return Verdict(valid, collides, leaves, oscillates, too_fast, backing, creeping)
+
+
+def boxed_in(verdict):
+    """Escape mode's fallback when none of the cycle's samples is admissible: reversing
+    that loses no clearance, else creeping back (escape_admissibility)."""
+    if verdict.valid.any():
+        return verdict
+    backing = verdict.backing if verdict.backing.any() else verdict.creeping
+    if not backing.any():
+        return verdict
+    return dataclasses.replace(verdict, valid=backing, collides=verdict.collides & ~backing)
 
 
 def _along_plan(togo, dist_path, costmap, pose, ex, ey, gain=ALONG_PLAN_GAIN):
@@ -758,18 +778,33 @@ class DWAPlanner(HeldPlan):
         samples = sample_velocities(scfg, dynamic_window(scfg, velocity), self.holonomic)
         if len(samples) == 0:
             return DWAResult(ok=False, reason="no velocity sample in the dynamic window")
-        ro = rollouts(cfg, pose, samples, costmap, clearance, self.latency)  # 3
+        horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
+        n_steps = simulation_steps(cfg, samples, horizon)
         dist_goal = math.hypot(scene.goal[0] - pose[0], scene.goal[1] - pose[1])
         speed = math.hypot(velocity[0], velocity[1])
-        k, too_fast = goal_approach(cfg, samples, ro, scene, dist_goal, speed, self.latency)   # 4
-        n_check, n_brake = check_horizon(cfg, samples, ro, k, scene.final, self.latency)
         oscillates = self.oscillation.forbidden(samples)
+        # Steps 3-5 block by block of samples: every step is per sample, and a block's
+        # (rows, n_steps) arrays stay below glibc's mmap threshold (summit_nav_common.malloc),
+        # so they are reused from the heap, not mapped and zeroed anew every cycle.
+        block = max(1, BLOCK_BYTES // (8 * n_steps))
+        costs, verdicts = [], []
+        for lo in range(0, len(samples), block):
+            rows = slice(lo, lo + block)
+            ro = rollouts(cfg, pose, samples[rows], costmap, clearance, self.latency, n_steps)  # 3
+            k, too_fast = goal_approach(cfg, samples[rows], ro, scene, dist_goal, speed, self.latency)   # 4
+            n_check, n_brake = check_horizon(cfg, samples[rows], ro, k, scene.final, self.latency)
+            if escape:
+                verdicts.append(escape_admissibility(self.policy, floor, c0, speed if c0 < 0.0 else 0.0,
+                                                     samples[rows], ro, k, n_check, n_brake, oscillates[rows],
+                                                     too_fast, scene, pose))
+            else:
+                verdicts.append(ordinary_admissibility(self.policy, ro, k, n_check, oscillates[rows], too_fast,
+                                                       costmap))
+            costs.append(scores(cfg, samples[rows], ro, k, obstacle_costs(ro, k, scene.final, escape), scene,
+                                dist_goal))                                   # 5
+        cost, verdict = np.concatenate(costs), Verdict.join(verdicts)
         if escape:
-            verdict = escape_admissibility(self.policy, floor, c0, speed if c0 < 0.0 else 0.0, samples, ro, k,
-                                           n_check, n_brake, oscillates, too_fast, scene, pose)
-        else:
-            verdict = ordinary_admissibility(self.policy, ro, k, n_check, oscillates, too_fast, costmap)
-        cost = scores(cfg, samples, ro, k, obstacle_costs(ro, k, scene.final, escape), scene, dist_goal)  # 5
+            verdict = boxed_in(verdict)
         best, n_valid = choose(cost, samples, verdict, scene.final)           # 6
         if best is None:                                                      # 7
             why = None
@@ -781,7 +816,8 @@ class DWAPlanner(HeldPlan):
         cmd = tuple(float(v) for v in samples[best])
         self.oscillation.update(tuple(pose), cmd, cfg.min_vel_trans)
         n = ro.n_score
-        traj = np.column_stack([ro.x[best, :n], ro.y[best, :n], ro.th[best, :n]])
+        x, y, th = simulate(pose, samples[best:best + 1], ro.dt, n_steps)   # its rows, as in its block
+        traj = np.column_stack([x[0, :n], y[0, :n], th[0, :n]])
         return DWAResult(cmd=cmd, trajectory=traj, n_valid=n_valid, n_samples=len(samples),
                          cost=float(cost[best]), mode=mode)
 

@@ -9,6 +9,14 @@ then holds tens of MB it no longer uses (issue 43: each node at Python's floor p
 real node's memory). ``limit_arenas`` caps the arenas and fixes the mmap threshold, so
 an array above it is returned to the system when freed. Only where glibc is the C
 library; elsewhere it does nothing and says so.
+
+The price: every block above the mmap threshold, and every heap top trimmed, is mapped
+and zeroed again by the kernel (a minor page fault per 4 KiB page) the next time it is
+needed. A control loop that allocates its working arrays each cycle must therefore keep
+them below the mmap threshold (DWA evaluates its samples in blocks for this), and the
+heap keeps up to `trim_threshold` free at its top: DWA's cycle frees about 2 MB there,
+and at the 1 MiB once set here the kernel took 600 faults a cycle to give it back.
+bench_stack_cpu.py reports each node's minor faults per simulated second.
 """
 import ctypes
 import ctypes.util
@@ -18,7 +26,7 @@ M_MMAP_THRESHOLD = -3
 M_ARENA_MAX = -8
 
 
-def limit_arenas(arenas=2, mmap_threshold=256 * 1024, trim_threshold=1024 * 1024):
+def limit_arenas(arenas=2, mmap_threshold=256 * 1024, trim_threshold=4 * 1024 * 1024):
     """Cap glibc's malloc arenas at `arenas`, hand blocks of `mmap_threshold` bytes or more
     to mmap (fixed, not raised after a free) and trim the heap's top above
     `trim_threshold` bytes. Call before the node starts its threads. Returns '' when
