@@ -110,8 +110,8 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping"):
         with rec.lock:
             m = rec.map_msg
         world_map = load_map(world_yaml)
-        slam = np.asarray(m.data, np.int8).reshape(m.info.height, m.info.width)
-        cov = exploration_coverage(world_map.data, world_map.resolution, world_map.origin[:2], pose, slam,
+        grid = np.asarray(m.data, np.int8).reshape(m.info.height, m.info.width)
+        cov = exploration_coverage(world_map.data, world_map.resolution, world_map.origin[:2], pose, grid,
                                    m.info.resolution, (m.info.origin.position.x, m.info.origin.position.y))
         world = World.from_yaml(world_yaml)
         quality = rec.evaluate(world, judged_range(slam), LaserParams())
@@ -138,8 +138,10 @@ def main(argv=None):
     os.makedirs(out_dir, exist_ok=True)
     if args.child:
         res = one_run(args.world, tuple(args.child), args.speed, out_dir, args.slam)
-        with open(args.child_out, "w") as f:
-            json.dump(res, f)
+        text = json.dumps(res)   # all of it or nothing: the parent reads what is there
+        with open(args.child_out + ".part", "w") as f:
+            f.write(text)
+        os.replace(args.child_out + ".part", args.child_out)
         return 0
     runs = []
     for i, pose in enumerate(start_poses(WORLDS[args.world], args.runs, args.seed)):
