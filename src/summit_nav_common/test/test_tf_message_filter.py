@@ -79,34 +79,6 @@ def test_given_up_after_the_timeout_of_wall_time():
     assert errors == [(1.0, tf2_ros.ExtrapolationException)] and not filt.queue and got == []
 
 
-def test_a_starved_tf_thread_loses_no_message():
-    """The willow exploration with slam:=karto (session 33, ecdc4f7) skipped scans with
-    "extrapolation 0.015 s into the future, the latest data at 38.0": the scan had waited
-    more than TF_WAIT when the scans' thread ran again, while the transforms that covered
-    it still sat unread in the /tf thread's socket. Only time in which transforms came
-    counts."""
-    buf, filt, got, errors, clock = make(timeout=0.25)
-    buf.set_transform(odom_tf(0.0, 0.0), "test")
-    filt.tf_arrived()
-    filt.add(Msg(0.075))
-    clock.t = 1.5                         # the process was starved; the scans' thread runs first
-    filt.add(Msg(0.1))
-    assert errors == [] and len(filt.queue) == 2
-    clock.t = 1.51                        # the /tf thread reads what waited for it
-    buf.set_transform(odom_tf(0.1, 1.0), "test")
-    filt.tf_arrived()
-    assert [g[0] for g in got] == [0.075, 0.1] and errors == []
-
-
-def test_no_transform_at_all_waits_until_the_queue_is_full():
-    buf, filt, got, errors, clock = make(queue_size=3, timeout=0.25)
-    buf.set_transform(odom_tf(0.0, 0.0), "test")
-    for k in range(4):
-        clock.t = k * 10.0
-        filt.add(Msg(1.0 + k))
-    assert errors == [(1.0, QueueOverflow)] and len(filt.queue) == 3
-
-
 def test_given_up_at_once_when_waiting_cannot_help():
     buf, filt, got, errors, _ = make()
     for k in range(5):

@@ -13,12 +13,10 @@ target <- source at msg.header.stamp at once when the buffer has it, else queues
 message; ``tf_arrived()`` (from a /tf subscriber callback registered after the
 tf2_ros.TransformListener, so the buffer already holds the new transforms) retries the
 queue in order. A queued message is given up, through ``on_error(msg, exception)``, when
-transforms have kept arriving for ``timeout`` seconds of wall time since it was queued
-and none covered it (wall, not ROS time: see tf_wait's docstring for why a wait in ROS
-time can stall the simulator), at once when waiting cannot help (the stamp is older than
-the buffer, a frame is unknown or not connected), or when the queue is full (the oldest
-goes). Time a process spends starved counts for nothing: its scans' thread may run
-before its /tf thread has read the transforms waiting in its socket. Messages are handed over in
+its transform has not come within ``timeout`` seconds of wall time (wall, not ROS time:
+see tf_wait's docstring for why a wait in ROS time can stall the simulator), at once when
+waiting cannot help (the stamp is older than the buffer, a frame is unknown or not
+connected), or when the queue is full (the oldest goes). Messages are handed over in
 the order they arrived, one at a time (the callback runs under the filter's lock).
 """
 import collections
@@ -61,7 +59,6 @@ class TfMessageFilter:
         self.clock = clock
         self.lock = threading.RLock()
         self.queue = collections.deque()   # (msg, wall time it arrived [s])
-        self.last_tf = None                # wall time of the last tf_arrived() [s]
         self.dropped = 0                   # messages given up, all reasons
 
     def add(self, msg):
@@ -78,7 +75,6 @@ class TfMessageFilter:
     def tf_arrived(self, _tf_msg=None):
         """New transforms are in the buffer: hand over what they make possible."""
         with self.lock:
-            self.last_tf = self.clock()
             if self.queue:
                 self._flush()
 
@@ -89,18 +85,13 @@ class TfMessageFilter:
             try:
                 transform = self.buffer.lookup_transform_core(self.target, self.source, stamp)
             except TF_ERRORS as e:
-                if self._behind(stamp) and not self._waited_out(arrived):
+                if self.clock() - arrived < self.timeout and self._behind(stamp):
                     return  # on its way: wait for the next tf_arrived()
                 self.queue.popleft()
                 self._give_up(msg, e)
                 continue
             self.queue.popleft()
             self.callback(msg, transform)
-
-    def _waited_out(self, arrived):
-        """Transforms have arrived for timeout seconds since `arrived` without the one
-        needed."""
-        return self.last_tf is not None and self.last_tf - arrived >= self.timeout
 
     def _behind(self, stamp):
         """True when the newest transform is older than stamp, or there is none yet (it
