@@ -83,7 +83,7 @@ class TfMessageFilter:
             msg, arrived = self.queue[0]
             stamp = msg.header.stamp
             try:
-                transform = self.buffer.lookup_transform_core(self.target, self.source, stamp)
+                transform = self._lookup(stamp)
             except TF_ERRORS as e:
                 if self.clock() - arrived < self.timeout and self._behind(stamp):
                     return  # on its way: wait for the next tf_arrived()
@@ -92,6 +92,17 @@ class TfMessageFilter:
                 continue
             self.queue.popleft()
             self.callback(msg, transform)
+
+    def _lookup(self, stamp):
+        """The transform at stamp. A failed lookup is asked once more when the newest
+        transform already covers stamp: the listener's thread fills the buffer beside
+        this one, and what covers stamp may have come in between."""
+        try:
+            return self.buffer.lookup_transform_core(self.target, self.source, stamp)
+        except TF_ERRORS:
+            if self._behind(stamp):
+                raise
+            return self.buffer.lookup_transform_core(self.target, self.source, stamp)
 
     def _behind(self, stamp):
         """True when the newest transform is older than stamp, or there is none yet (it
