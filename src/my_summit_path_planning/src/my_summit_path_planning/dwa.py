@@ -154,6 +154,11 @@ class DWAConfig:
         """[s] one control period."""
         return 1.0 / self.controller_frequency
 
+    @property
+    def horizon(self):
+        """[s] how long a sample is rolled out: sim_time + stop_time_buffer."""
+        return self.sim_time + max(0.0, self.stop_time_buffer)
+
 
 # -- 1. dynamic window ----------------------------------------------------------------
 def dynamic_window(cfg, vel):
@@ -262,14 +267,12 @@ class Rollouts:
         return self.x.shape[1]
 
 
-def rollouts(cfg, pose, samples, costmap, clearance, latency, n_steps=None):
-    """Rollouts of samples (N, 3) from pose; clearance(x, y, th) -> [m] of poses;
-    latency [s]: how long this cycle's command stays in force; n_steps: the cycle's step
-    count (simulation_steps of all its samples) when these are a block of them."""
-    horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
-    if n_steps is None:
-        n_steps = simulation_steps(cfg, samples, horizon)
-    dt = horizon / n_steps
+def rollouts(cfg, pose, samples, costmap, clearance, latency, n_steps):
+    """Rollouts of samples (N, 3) from pose over n_steps steps of cfg.horizon; clearance(x,
+    y, th) -> [m] of poses; latency [s]: how long this cycle's command stays in force.
+    n_steps is the whole cycle's (simulation_steps of all its samples): these may be a
+    block of them."""
+    dt = cfg.horizon / n_steps
     n_score = max(1, min(n_steps, int(round(cfg.sim_time / dt))))
     x, y, th = simulate(pose, samples, dt, n_steps)
     h, w = costmap.data.shape
@@ -778,8 +781,7 @@ class DWAPlanner(HeldPlan):
         samples = sample_velocities(scfg, dynamic_window(scfg, velocity), self.holonomic)
         if len(samples) == 0:
             return DWAResult(ok=False, reason="no velocity sample in the dynamic window")
-        horizon = cfg.sim_time + max(0.0, cfg.stop_time_buffer)
-        n_steps = simulation_steps(cfg, samples, horizon)
+        n_steps = simulation_steps(cfg, samples, cfg.horizon)
         dist_goal = math.hypot(scene.goal[0] - pose[0], scene.goal[1] - pose[1])
         speed = math.hypot(velocity[0], velocity[1])
         oscillates = self.oscillation.forbidden(samples)
