@@ -22,7 +22,9 @@ import statistics
 import sys
 import time
 
-import numpy as np
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # as nodes/slam_karto: its CPU, not a spinning thread's
+
+import numpy as np  # noqa: E402
 
 from my_summit_mapping import carmen, carmen_bag, metrics, online_eval
 from my_summit_mapping.karto.mapper import KartoMapper, KartoParams, LaserGeometry
