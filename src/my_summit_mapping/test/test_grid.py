@@ -203,3 +203,35 @@ def test_add_hits_marks_end_cells_only():
     assert g.mean_hit(20, 0) == pytest.approx((1.022, 0.01), abs=1e-6)
     g.add_hits(laser, np.array([10.0]), np.zeros(1), 10.0, 30.0)    # r == maxUrange: used
     assert g.read_window(-300, -300, 600, 600)[0].sum() == 3
+
+
+def _read_layers_reference(g, ix0, iy0, width, height):
+    """read_layers cell by cell: each cell from its patch, or zeros (the oracle)."""
+    out = np.zeros((G.LAYERS, height, width), np.float32)
+    store = g.pool.store
+    for r in range(height):
+        for c in range(width):
+            ix, iy = ix0 + c, iy0 + r
+            slot = g._patches.get((iy >> G.PATCH_SHIFT, ix >> G.PATCH_SHIFT))
+            if slot is not None:
+                out[:, r, c] = store[slot, :, iy & (G.PATCH_CELLS - 1), ix & (G.PATCH_CELLS - 1)]
+    return out
+
+
+@pytest.mark.parametrize("window", [(-37, -21, 75, 50), (3, 5, 1, 1), (-64, -64, 128, 128), (-200, -7, 40, 9),
+                                    (11, -40, 33, 90), (-500, -420, 1000, 900)])
+def test_read_layers_matches_reading_cell_by_cell(window):
+    """The scatter into a patch-aligned buffer, by window or by allocated patches, reads
+    what each cell's patch holds, unallocated cells as 0, for windows off patch borders,
+    of one cell, on them, outside the grid, across it, and far larger than it (the
+    allocated patches enumerated instead of the window's)."""
+    g = G.PatchGrid(RES)
+    rng = np.random.default_rng(4)
+    for _ in range(6):
+        pose = np.array([rng.uniform(-1.5, 1.5), rng.uniform(-1.0, 1.0), rng.uniform(-3, 3)])
+        g.integrate_scan(pose, ray_cast(pose), ANGLES, 8.0, 29.0)
+    ix0, iy0, w, h = window
+    expected = _read_layers_reference(g, ix0, iy0, w, h)
+    assert_array_equal(g.read_layers(ix0, iy0, w, h), expected)
+    assert_array_equal(g.read_layers(ix0, iy0, w, h, layers=2), expected[:2])
+    assert_array_equal(G.PatchGrid(RES).read_layers(ix0, iy0, w, h), np.zeros_like(expected))

@@ -239,16 +239,38 @@ class PatchGrid:
         cells = self.read_layers(ix0, iy0, width, height)
         return cells[HITS], cells[VISITS]
 
-    def read_layers(self, ix0: int, iy0: int, width: int, height: int) -> np.ndarray:
-        """All layers (LAYERS, height, width) float32 (HITS, VISITS, SUM_X, SUM_Y) of the
-        cells from (ix0, iy0)."""
-        out = np.zeros((LAYERS, height, width), np.float32)
-        store = self.pool.store
-        for key, (wy, wx, py, px, h, w) in _patch_slices(ix0, iy0, width, height):
-            slot = self._patches.get(key)
-            if slot is not None:
-                out[:, wy:wy + h, wx:wx + w] = store[slot, :, py:py + h, px:px + w]
-        return out
+    def read_layers(self, ix0: int, iy0: int, width: int, height: int, layers: int = LAYERS) -> np.ndarray:
+        """The first `layers` layers (layers, height, width) float32 (HITS, VISITS, SUM_X,
+        SUM_Y) of the cells from (ix0, iy0).
+
+        The patches the window touches are copied in one scatter into a patch-aligned
+        buffer, which is then cut to the window (a map's window holds thousands of patches:
+        copying them one by one in Python cost more than the ray casting)."""
+        py0, px0 = iy0 >> PATCH_SHIFT, ix0 >> PATCH_SHIFT
+        rows = ((iy0 + height - 1) >> PATCH_SHIFT) - py0 + 1
+        cols = ((ix0 + width - 1) >> PATCH_SHIFT) - px0 + 1
+        keys, slots = self._patches_in(py0, px0, rows, cols)
+        buf = np.zeros((layers, rows, PATCH_CELLS, cols, PATCH_CELLS), np.float32)
+        # the two index arrays, split by a slice, put the patch axis first: (K, layers, P, P)
+        buf[:, keys[:, 0] - py0, :, keys[:, 1] - px0, :] = self.pool.store[slots, :layers]
+        buf = buf.reshape(layers, rows * PATCH_CELLS, cols * PATCH_CELLS)
+        oy, ox = iy0 - (py0 << PATCH_SHIFT), ix0 - (px0 << PATCH_SHIFT)
+        if (oy, ox, height, width) == (0, 0) + buf.shape[1:]:
+            return buf
+        return buf[:, oy:oy + height, ox:ox + width].copy()
+
+    def _patches_in(self, py0: int, px0: int, rows: int, cols: int) -> Tuple[np.ndarray, np.ndarray]:
+        """(keys (K, 2) [py, px], pool slots (K,)) of the allocated patches in rows x cols
+        patches from (py0, px0), found by whichever is shorter: the window or the grid."""
+        if rows * cols <= len(self._patches):
+            found = [(py, px, self._patches[py, px]) for py in range(py0, py0 + rows)
+                     for px in range(px0, px0 + cols) if (py, px) in self._patches]
+            arr = np.array(found, np.int64).reshape(-1, 3)
+            return arr[:, :2], arr[:, 2]
+        keys = self._key_array().reshape(-1, 2)
+        slots = np.fromiter(self._patches.values(), np.int64, len(self._patches))
+        inside = ((keys[:, 0] >= py0) & (keys[:, 0] < py0 + rows) & (keys[:, 1] >= px0) & (keys[:, 1] < px0 + cols))
+        return keys[inside], slots[inside]
 
     def mean_hit(self, ix: int, iy: int) -> Optional[Tuple[float, float]]:
         """World point (x, y) [m] that the hits of cell (ix, iy) average to; None without hits."""
@@ -328,14 +350,8 @@ class PatchGrid:
         """
         ix0, iy0, ix1, iy1 = self._output_extent(extent)
         width, height = ix1 - ix0, iy1 - iy0
-        data = np.full((height, width), UNKNOWN, np.int8)
-        for key, (wy, wx, py, px, h, w) in _patch_slices(ix0, iy0, width, height):
-            slot = self._patches.get(key)
-            if slot is None:
-                continue
-            patch = self.pool.store[slot]
-            data[wy:wy + h, wx:wx + w] = occupancy_values(patch[HITS, py:py + h, px:px + w],
-                                                          patch[VISITS, py:py + h, px:px + w], occ_thresh)
+        counts = self.read_layers(ix0, iy0, width, height, layers=VISITS + 1)
+        data = occupancy_values(counts[HITS], counts[VISITS], occ_thresh)
         return (data.reshape(-1), width, height, self.resolution,
                 ix0 * self.resolution, iy0 * self.resolution)
 
