@@ -57,7 +57,7 @@ PROFILE_STAGES = (
     ("scan callbacks and the tf wait (checks, queueing)",
      [("nodes/slam_gmapping", "on_scan"), ("tf_message_filter.py", "tf_arrived")]),
     ("receiving messages (reading, deserializing; tf, clock)", [("tcpros_base.py", "receive_once")]),
-    ("map -> odom tf publication", [("nodes/slam_gmapping", "publish_tf_loop")]),
+    ("map -> odom tf publication", [("tf_broadcast.py", "run")]),
 )
 # an update contains its steps; receiving contains the scan callbacks
 PROFILE_CONTAINS = {4: [0, 1, 2, 3], 8: [7]}
