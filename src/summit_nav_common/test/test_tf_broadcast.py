@@ -33,20 +33,12 @@ class _ClosingPublisher:
                           t.transform.rotation.z, t.transform.rotation.w))
 
 
-class _Rate:
-    def __init__(self, _hz):
-        pass
-
-    def sleep(self):
-        pass
-
-
 @pytest.fixture
 def fake_ros(monkeypatch):
-    """A clock that ticks 0.01 s every second read (a repeated stamp is not sent), no sleeping."""
+    """A clock that ticks 0.01 s every second read (a repeated stamp is not sent), no waiting."""
     ticks = iter(range(1, 10 ** 6))
-    monkeypatch.setattr(rospy.Time, "now", staticmethod(lambda: rospy.Time.from_sec(0.01 * (next(ticks) // 2))))
-    monkeypatch.setattr(rospy, "Rate", _Rate)
+    monkeypatch.setattr(tf_broadcast, "_now_ns", lambda: 10 ** 7 * (next(ticks) // 2))
+    monkeypatch.setattr(tf_broadcast, "_wait_until", lambda due, now: None)
     monkeypatch.setattr(rospy, "is_shutdown", lambda: False)
 
 
@@ -65,9 +57,9 @@ def test_loop_ends_quietly_when_shutdown_closes_the_publisher(monkeypatch, fake_
     b = _broadcaster(monkeypatch, pub, listener)
     b.run()   # returns, no exception
     assert b.sent == 3 and len(pub.sent) == 3
-    # each stamped now + tolerance, a repeated stamp not sent, the pose as given; into the buffer too
+    # each stamped now + tolerance, on the 0.05 s grid, the pose as given; into the buffer too
     stamps = [s[0] for s in pub.sent]
-    assert stamps == pytest.approx([0.2, 0.21, 0.22]) and owned == pytest.approx(stamps)
+    assert stamps == pytest.approx([0.2, 0.25, 0.3]) and owned == pytest.approx(stamps)
     assert pub.sent[0][1:] == pytest.approx(("map", "odom", 1.5, math.sqrt(0.5), math.sqrt(0.5)))
 
 
@@ -80,3 +72,28 @@ def test_loop_still_raises_a_closed_topic_while_running(monkeypatch, fake_ros):
 def test_period_must_be_positive(monkeypatch):
     with pytest.raises(ValueError, match="period"):
         tf_broadcast.PeriodicTransform("map", "odom", 0.0, 0.0, lambda: (0, 0, 0))
+
+
+def test_sends_on_the_period_grid_as_ros_rate(monkeypatch):
+    """A 100 Hz clock (0.01 s steps), period 0.05 s: every fifth tick, on the grid; a stall of
+    a second starts the grid again from then (no burst to catch up); a clock set back (a
+    bag played again) starts it again there."""
+    clock = [0.0, 0.01, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.1, 0.11,
+             1.13, 1.14, 1.15, 1.16, 1.17, 1.18, 1.19,
+             0.30, 0.31, 0.32, 0.33, 0.34, 0.35, 0.36]
+    reads = iter(clock)
+    stop = {"now": False}
+
+    def now_ns():
+        try:
+            return int(round(next(reads) * 1e9))
+        except StopIteration:
+            stop["now"] = True
+            return int(round(clock[-1] * 1e9))
+    monkeypatch.setattr(tf_broadcast, "_now_ns", now_ns)
+    monkeypatch.setattr(tf_broadcast, "_wait_until", lambda due, now: None)
+    monkeypatch.setattr(rospy, "is_shutdown", lambda: stop["now"])
+    pub = _ClosingPublisher(10 ** 6, on_close=lambda: None)
+    _broadcaster(monkeypatch, pub).run()
+    stamps = [round(s[0] - 0.2, 2) for s in pub.sent]
+    assert stamps == [0.0, 0.05, 0.1, 1.13, 1.18, 0.3, 0.35]

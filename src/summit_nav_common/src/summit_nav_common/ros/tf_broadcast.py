@@ -7,8 +7,10 @@ lookups up to that far in the future succeed. With a listener (tf_listener.Trans
 each transform a node sends goes straight into its own buffer instead of coming back over /tf.
 """
 import threading
+import time
 
 import rospy
+import rospy.rostime
 from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
@@ -48,22 +50,46 @@ class PeriodicTransform:
         threading.Thread(target=self.run, daemon=True).start()
 
     def run(self):
-        rate = rospy.Rate(1.0 / self.period)
+        """Send at every due time until shutdown. Times are integer nanoseconds of ROS time:
+        a loop on rospy.Rate built and compared a few genpy Times per /clock message, which
+        at a bag's 100 Hz clock cost more than the sending."""
         t = self.transform
-        last_stamp = None
+        period, tolerance = _ns(self.period), _ns(self.tolerance.to_sec())
+        due = last = None
         while not rospy.is_shutdown():
-            stamp = rospy.Time.now() + self.tolerance
-            # the simulated clock ticks in steps: a repeated stamp would be rejected by tf2
-            if stamp != last_stamp:
-                last_stamp = stamp
-                x, y, yaw = self.pose()
-                t.header.stamp = stamp
-                t.transform.translation.x, t.transform.translation.y = float(x), float(y)
-                t.transform.rotation.z, t.transform.rotation.w = map_msgs.yaw_to_quaternion_zw(float(yaw))
-                if not publish_or_end(self.broadcaster.sendTransform, t):
-                    return   # shutdown closed the topic after the loop's check
-                self.sent += 1
-            try:
-                rate.sleep()
-            except rospy.ROSInterruptException:
-                return
+            now = _now_ns()
+            if due is None or now >= due or now < due - 2 * period:   # the first, due, or time went back
+                # the simulated clock ticks in steps: a repeated stamp would be rejected by tf2
+                if now != last:
+                    last = now
+                    x, y, yaw = self.pose()
+                    t.header.stamp = rospy.Time(*divmod(now + tolerance, 10 ** 9))
+                    t.transform.translation.x, t.transform.translation.y = float(x), float(y)
+                    t.transform.rotation.z, t.transform.rotation.w = map_msgs.yaw_to_quaternion_zw(float(yaw))
+                    if not publish_or_end(self.broadcaster.sendTransform, t):
+                        return   # shutdown closed the topic after the loop's check
+                    self.sent += 1
+                # as ros::Rate: on the period's grid, started again when a period or more behind
+                due = now + period if due is None or now - due >= period or now < due - 2 * period else due + period
+            _wait_until(due, now)
+
+
+def _ns(seconds):
+    return int(round(seconds * 1e9))
+
+
+def _now_ns():
+    now = rospy.rostime.get_rostime()
+    return now.secs * 10 ** 9 + now.nsecs
+
+
+def _wait_until(due, now):
+    """Until ROS time `due` [ns] or the next /clock message, whichever first (wall time:
+    sleep for the rest)."""
+    if rospy.rostime.is_wallclock():
+        time.sleep(max(0.0, (due - now) * 1e-9))
+        return
+    cond = rospy.rostime.get_rostime_cond()
+    with cond:
+        if _now_ns() < due:
+            cond.wait(0.5)
