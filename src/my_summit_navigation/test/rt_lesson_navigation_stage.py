@@ -9,13 +9,20 @@ server /move_base and judges each by the simulator's ground truth (the world is 
 so no frame change).
 
   param ~goals: [{x: .., y: .., theta: DEG}, ...] in the map frame, sent in order
-  param ~xy_tolerance [m], ~yaw_tolerance [rad]: by ground truth, after each goal
+  param ~xy_tolerance [m]: by ground truth, after each goal
+  param ~yaw_tolerance [rad]: the robot's own heading (tf map -> base_footprint, amcl's
+        estimate with the odometry since) from the goal's after each goal: what the
+        controller judged, plus its stop
+  param ~yaw_localization_tolerance [rad]: that heading from the true one
   param ~goal_timeout [s] sim: how long each goal may take
   param ~node: move_base's node name (move_base_node)
   param ~expect_log: strings every one of which must appear in that node's log file
 
-Asserts: every goal ends SUCCEEDED within ~goal_timeout; the true pose is then within the
-tolerances; /collisions stays 0; the node's log says what it loaded (~expect_log: the
+Asserts: every goal ends SUCCEEDED within ~goal_timeout; the true position is then within
+~xy_tolerance, and the heading within the goal's by the robot's own estimate and that
+estimate within the truth's (two tolerances: a heading off by ground truth alone could
+not tell a controller that stopped early from a localization that drifted); /collisions
+stays 0; the node's log says what it loaded (~expect_log: the
 pre-Hydro parameters of both costmaps, the TrajectoryPlannerROS local planner).
 Prints one LESSON_GOAL line per goal.
 """
@@ -28,7 +35,9 @@ import unittest
 import rospkg
 import rospy
 import rostest
+import tf2_ros
 
+from summit_nav_common.geometry import quaternion_to_yaw, wrap_angle
 from summit_nav_common.testing import ground_truth as gt, move_base_client as mb, waits
 
 SETTLE = 1.0        # [s] sim: after a result, before the pose is judged (the robot has stopped)
@@ -64,6 +73,9 @@ class LessonNavigationStage(unittest.TestCase):
         goals = rospy.get_param("~goals")
         xy_tol = float(rospy.get_param("~xy_tolerance"))
         yaw_tol = float(rospy.get_param("~yaw_tolerance"))
+        loc_tol = float(rospy.get_param("~yaw_localization_tolerance"))
+        tf_buffer = tf2_ros.Buffer()
+        tf2_ros.TransformListener(tf_buffer)
         goal_timeout = float(rospy.get_param("~goal_timeout"))
         node = rospy.get_param("~node", "move_base_node")
         expect_log = rospy.get_param("~expect_log", [])
@@ -83,16 +95,26 @@ class LessonNavigationStage(unittest.TestCase):
             took = rospy.Time.now().to_sec() - t0
             waits.sleep_sim(SETTLE)
             pose = truth.pose
+            own = tf_buffer.lookup_transform("map", "base_footprint", rospy.Time(0), rospy.Duration(2.0))
+            own_yaw = quaternion_to_yaw(own.transform.rotation)
             err_xy, err_yaw = gt.pose_error(pose, goal)
+            own_err = abs(wrap_angle(own_yaw - goal[2]))
+            loc_err = abs(wrap_angle(own_yaw - pose[2]))
             print(f"LESSON_GOAL i={i} goal=({goal[0]:.2f},{goal[1]:.2f},{g['theta']}deg) state={state} "
                   f"sim_s={took:.1f} xy_error_m={err_xy:.3f} yaw_error_rad={err_yaw:.3f} "
+                  f"own_yaw_error_rad={own_err:.3f} localization_yaw_error_rad={loc_err:.3f} "
                   f"collisions={truth.collisions} text={text!r}", flush=True)
             if state != "SUCCEEDED":
                 failures.append(f"goal {i}: move_base ended {state}: {text}")
                 break
-            if err_xy > xy_tol or err_yaw > yaw_tol:
-                failures.append(f"goal {i}: {err_xy:.3f} m / {err_yaw:.3f} rad from the goal by ground "
-                                f"truth (tolerance {xy_tol} m / {yaw_tol} rad)")
+            if err_xy > xy_tol:
+                failures.append(f"goal {i}: {err_xy:.3f} m from the goal by ground truth (tolerance {xy_tol} m)")
+            if own_err > yaw_tol:
+                failures.append(f"goal {i}: heading {own_err:.3f} rad from the goal's by the robot's own estimate "
+                                f"(tolerance {yaw_tol} rad)")
+            if loc_err > loc_tol:
+                failures.append(f"goal {i}: the robot's heading estimate {loc_err:.3f} rad from the truth "
+                                f"(tolerance {loc_tol} rad)")
         if truth.collisions:
             failures.append(f"{truth.collisions} collisions")
         self.assertEqual(failures, [], "; ".join(failures))
