@@ -64,7 +64,7 @@ def _occupancy(grid: PatchGrid, resolution: float):
     if b is None:
         return np.full((1, 1), UNKNOWN, np.int8), (0.0, 0.0)
     ix0, iy0, ix1, iy1 = b
-    layers = grid.read_layers(ix0, iy0, ix1 - ix0, iy1 - iy0)
+    layers = grid.read_layers(ix0, iy0, ix1 - ix0, iy1 - iy0, layers=VISITS + 1)   # the counts only
     hits, visits = layers[HITS], layers[VISITS]
     out = occupancy_values(hits, visits, OCCUPANCY_THRESHOLD)
     out[visits < MIN_PASS_THROUGH] = UNKNOWN
