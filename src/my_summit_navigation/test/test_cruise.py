@@ -401,6 +401,22 @@ def test_return_home_interrupts_and_ends_stopped():
     assert cr.Cruise([A]).return_home(0.0)[0] is False    # no home
 
 
+def test_a_stop_reached_while_return_home_cancels_it_counts_as_reached():
+    """CI at cc35eb9 (patrol_blocked.test, the simulator at 1.35x of 4x): move_base reported
+    turtle SUCCEEDED, the test saw that and called ~return_home, and the patrol handled the
+    request before the goal's result. The cancel came too late, the goal had succeeded, and
+    the summary said 'reached 2' for three stops reached. A goal that succeeds while the
+    cancel is on its way is reached, as when the battery interrupts it."""
+    home = cr.Stop("home", Spot.from_xy_yaw(0.0, 0.0, 0.0))
+    r = Run(laps=0, home=home)
+    r.start()
+    r.do(r.cruise.return_home(r.t)[1])
+    r.finish(cr.SUCCEEDED)                       # the result of 'a', after the request
+    assert r.sends() == ["a", "home"]
+    r.finish()
+    assert r.summary()["state"] == cr.STOPPED and r.summary()["reached"] == 1
+
+
 def test_the_diagnostic_values():
     r = Run(laps=2, dock=DOCK)
     assert r.cruise.status().message == "waiting to start"

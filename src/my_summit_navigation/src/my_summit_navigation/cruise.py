@@ -447,8 +447,13 @@ class Cruise:
         why = self._cancel[0] if self._cancel else None
         self._cancel = None
         took = now - goal.sent_at
+        out = []
+        if why in ("home", "battery") and goal.kind == "waypoint" and state == SUCCEEDED:
+            # it got there while the cancel was on its way: the stop counts as reached
+            out.append(Log(OK, self.log.goal_line(self.lap, goal.stop, NEXT, "reached", took)))
+            self._next_waypoint()
         if why == "home":
-            return self._send(self.home, "home", now)
+            return out + self._send(self.home, "home", now)
         if goal.kind == "home":
             return [Log(OK, f"return home: {'reached' if state == SUCCEEDED else 'not reached'} after "
                             f"{took:.1f} s ({(text or '').strip() or 'state %d' % state})")] + \
@@ -456,10 +461,7 @@ class Cruise:
         if goal.kind == "dock":
             return self._dock_done(state, text, why == "stuck", took, now)
         if why == "battery":
-            if state == SUCCEEDED:      # it got there while the cancel was on its way
-                out = [Log(OK, self.log.goal_line(self.lap, goal.stop, NEXT, "reached", took))]
-                self._next_waypoint()
-            else:
+            if not out:
                 out = [Log(WARN, f"{self.log.prefix} {self.lap}: '{goal.stop.name}' interrupted after {took:.1f} s: "
                                  f"battery low (resumed after charging)")]
             return out + self._go_dock(now)
