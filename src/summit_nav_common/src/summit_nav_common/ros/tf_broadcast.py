@@ -58,7 +58,8 @@ class PeriodicTransform:
         due = last = None
         while not rospy.is_shutdown():
             now = _now_ns()
-            if due is None or now >= due or now < due - 2 * period:   # the first, due, or time went back
+            restart = due is None or now < due - 2 * period      # the first, or the clock went back
+            if restart or now >= due:
                 # the simulated clock ticks in steps: a repeated stamp would be rejected by tf2
                 if now != last:
                     last = now
@@ -70,7 +71,7 @@ class PeriodicTransform:
                         return   # shutdown closed the topic after the loop's check
                     self.sent += 1
                 # as ros::Rate: on the period's grid, started again when a period or more behind
-                due = now + period if due is None or now - due >= period or now < due - 2 * period else due + period
+                due = now + period if restart or now - due >= period else due + period
             _wait_until(due, now)
 
 
