@@ -11,8 +11,10 @@ aborts, or one with no progress for progress_timeout, is blacklisted (the timer 
 when the choice flips back to a goal it was driving to moments ago: frontiers.GoalProgress);
 one the robot comes within REACHED of, its frontier in the laser's view, counts as
 reached. When no frontier is left, the goals given up for no progress get one more try
-(frontiers.Blacklist). When none is left then (or none can be reached, or the robot is
-stuck) it stops, says so, and saves the map.
+(frontiers.Blacklist); when frontiers are seen where the robot cannot pass, move_base's
+costmaps are cleared once (move_base/clear_costmaps) and it looks again. When none is
+left then (or none can be reached, or the robot is stuck) it stops, says so, and saves
+the map.
 
   action client of move_base (move_base_msgs/MoveBaseAction)
   sub   ~costmap_topic (default move_base/global_costmap/costmap, nav_msgs/OccupancyGrid)
@@ -49,11 +51,14 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
 from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Bool, String
+from std_srvs.srv import Empty
 
 from summit_nav_common.geometry import quaternion_to_yaw
 from summit_nav_common.ros.costmap_client import CostmapClient
 from my_summit_navigation import frontiers as fr
 from my_summit_navigation.exploration import Explore
+
+CLEAR_WAIT = 5.0   # [s] for move_base's clear_costmaps service
 
 
 class ExploreNode:
@@ -119,6 +124,8 @@ class ExploreNode:
             (rospy.logwarn if level == "warn" else rospy.loginfo)(f"explore: {text}")
         if r.cancel and self.goal_handle is not None:
             self.goal_handle.cancel()
+        if r.clear_costmaps:
+            self.clear_costmaps()
         if r.frontiers is not None:
             pa = PoseArray()
             pa.header = header
@@ -137,6 +144,14 @@ class ExploreNode:
             n = self.explore.sent   # this goal's number: its callback names it
             self.goal_handle = self.client.send_goal(goal, transition_cb=lambda h: self._on_transition(n, h))
         return r.over
+
+    def clear_costmaps(self):
+        name = rospy.resolve_name("move_base") + "/clear_costmaps"
+        try:
+            rospy.wait_for_service(name, CLEAR_WAIT)
+            rospy.ServiceProxy(name, Empty)()
+        except (rospy.ROSException, rospy.ServiceException) as e:
+            rospy.logwarn(f"explore: could not clear the costmaps ({name}): {e}")
 
     def save(self):
         if not self.save_base:

@@ -32,14 +32,15 @@ class Round:
     """What one planning round asks of the node.
 
     send: the Frontier whose goal to send (heading goal_yaw [rad]), or None; cancel: cancel
-    the active move_base goal (given up); frontiers: the frontiers found, cheapest first
-    (None: not searched this round); over: why exploration is over, or None; logs:
-    [(level 'info' / 'warn', text)].
+    the active move_base goal (given up); clear_costmaps: ask move_base to clear its
+    costmaps; frontiers: the frontiers found, cheapest first (None: not searched this
+    round); over: why exploration is over, or None; logs: [(level 'info' / 'warn', text)].
     """
 
     send: object = None
     goal_yaw: float = 0.0
     cancel: bool = False
+    clear_costmaps: bool = False
     frontiers: list = None
     over: str = None
     logs: list = field(default_factory=list)
@@ -70,6 +71,7 @@ class Explore:
         self.failed = 0             # goals aborted or without progress
         self.empty_rounds = 0       # costmaps in a row on which no frontier was found
         self.empty_stamp = None     # the stamp of the last of them
+        self.cleared = False        # the costmaps were cleared for frontiers out of reach since the last goal
 
     def goal_done(self, number, state):
         """move_base ended goal number (1 for the first goal sent, as in the logs) with
@@ -133,6 +135,17 @@ class Explore:
                                      "try at " + ", ".join(f"({x:.2f}, {y:.2f})" for x, y in again)))
             return None
         beyond = fr.frontiers_out_of_reach(grid, resolution, origin, robot, self.params)
+        if beyond and not self.cleared:
+            # The way to them may be closed by obstacle marks the costmap keeps where the
+            # laser no longer looks: hits placed while the map -> odom correction lagged a
+            # turn narrowed a 1 m door below the robot's width. Cleared, the costmap is the
+            # map again; ending is for a way the map itself closes.
+            self.cleared = True
+            self.empty_rounds = 0
+            out.clear_costmaps = True
+            out.logs.append(("warn", f"{beyond} frontier{'s' if beyond > 1 else ''} seen where the robot cannot "
+                                     "pass: clearing move_base's costmaps and looking again"))
+            return None
         if self.failed == 0 and beyond == 0:
             return "no frontiers left"
         why = [f"{self.failed} goals failed and blacklisted"] if self.failed else []
@@ -175,6 +188,7 @@ class Explore:
         out.send = frontier
         out.goal_yaw = fr.goal_heading(pose[:2], frontier.goal, frontier.centroid)
         self.goal, self.goal_state, self.goal_centroid = tuple(frontier.goal), None, frontier.centroid
+        self.cleared = False
         again = self.progress.start(self.goal, now)
         self.sent += 1
         out.logs.append(("info", f"goal {self.sent}: frontier of {frontier.size:.1f} m at ({self.goal[0]:.2f}, "
