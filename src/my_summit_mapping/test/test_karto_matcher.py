@@ -176,3 +176,11 @@ def test_compiled_grid_kernels_equal_their_oracles(seed):
     values = rng.integers(0, 256, size=(h, w)).astype(np.uint8)
     for extent in (1, 3, 15, int(max(h, w)) + 2):
         assert_array_equal(cm._box_max(values, extent), cm._box_max_reference(values, extent))
+    # the responses' sums, to the grid's first and last cell
+    flat = values.reshape(-1)
+    cells = rng.integers(5, h * w - 5, size=(7, 30))
+    shift = np.array([-5, -1, 0, 2, 4])
+    cells[0, 0], cells[-1, -1] = 5, h * w - 5
+    assert_array_equal(cm._correlate_sums(flat, cells, shift), cm._correlate_sums_reference(flat, cells, shift))
+    with pytest.raises(IndexError):
+        cm._correlate_sums(flat, cells, np.array([5]))

@@ -7,7 +7,11 @@
  *   extent x extent box whose lower corner is (x, y), cells beyond the grid read 0
  *   (a separable running maximum: rows, then columns). Returns 0, or -1 when its row
  *   buffer cannot be allocated (dst untouched).
- * Oracles: correlative_matcher._stamp_reference and _box_max_reference (NumPy).
+ * snc_correlate_sums: the search's responses before scaling: out[a][p] = sum over the n
+ *   points of flat[base[a][i] + shift[p]], for A headings (base: each point's cell at that
+ *   heading) and P x-y shifts; the caller keeps every index inside the grid (cells_of).
+ * Oracles: correlative_matcher._stamp_reference, _box_max_reference and
+ *   _correlate_sums_reference (NumPy).
  */
 #include <stdint.h>
 #include <stdlib.h>
@@ -58,4 +62,19 @@ int snc_box_max(const uint8_t *src, int64_t h, int64_t w, int64_t extent, uint8_
     }
     free(tmp);
     return 0;
+}
+
+void snc_correlate_sums(const uint8_t *flat, const int64_t *base, int64_t n_angles, int64_t n_points,
+                        const int64_t *shift, int64_t n_shifts, int64_t *out)
+{
+    for (int64_t a = 0; a < n_angles; ++a) {
+        const int64_t *b = base + a * n_points;
+        for (int64_t p = 0; p < n_shifts; ++p) {
+            const uint8_t *f = flat + shift[p];
+            int64_t sum = 0;
+            for (int64_t i = 0; i < n_points; ++i)
+                sum += f[b[i]];
+            out[a * n_shifts + p] = sum;
+        }
+    }
 }

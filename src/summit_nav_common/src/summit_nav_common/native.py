@@ -57,6 +57,7 @@ SIGNATURES = {
     # csrc/correlation_grid.c (my_summit_mapping.karto.correlative_matcher)
     "snc_stamp_max": (None, [_u8, _i64, _int64, _u8, _int64, _int64]),
     "snc_box_max": (ctypes.c_int, [_u8, _int64, _int64, _int64, _u8]),
+    "snc_correlate_sums": (None, [_u8, _i64, _int64, _int64, _i64, _int64, _i64]),
     # csrc/global_planner.c (my_summit_path_planning.global_planner)
     "snc_gp_expand": (ctypes.c_int, [_f64, _int64, _int64, _i64, _f64, _int64, _int64, _double, ctypes.c_int, _f64,
                                      ctypes.POINTER(_int64)]),

@@ -228,8 +228,26 @@ def correlate(grid: LookupGrid, points: np.ndarray, center: np.ndarray, offsets:
     base = grid.cells_of(_turned(points, center, angles))           # (A, n)
     w = grid.values.shape[1]
     shift = offsets[:, 1] * w + offsets[:, 0]                          # (P,)
-    sums = np.take(grid.flat, base[:, None, :] + shift[None, :, None]).sum(axis=2, dtype=np.int64)
-    return sums / float(len(points) * GRID_OCCUPIED)
+    return _correlate_sums(grid.flat, base, shift) / float(len(points) * GRID_OCCUPIED)
+
+
+def _correlate_sums(flat: np.ndarray, base: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """int64 (A, P): the sum over points of flat[base[a, i] + shift[p]] (compiled,
+    csrc/correlation_grid.c: one pass, no (A, P, n) index array; _correlate_sums_reference
+    is its oracle). Every index must lie in flat (cells_of keeps them there)."""
+    base = np.ascontiguousarray(base, np.int64).reshape(-1, base.shape[-1])
+    shift = np.ascontiguousarray(shift, np.int64).reshape(-1)
+    out = np.empty((base.shape[0], len(shift)), np.int64)
+    if base.size and len(shift) and (base.min() + shift.min() < 0 or base.max() + shift.max() >= len(flat)):
+        raise IndexError(f"a lookup falls outside the {len(flat)}-cell grid")   # what np.take would say
+    library().snc_correlate_sums(flat, base, base.shape[0], base.shape[1], shift, len(shift), out)
+    return out
+
+
+def _correlate_sums_reference(flat: np.ndarray, base: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """_correlate_sums in NumPy (the tests' oracle)."""
+    base = np.asarray(base).reshape(-1, base.shape[-1])
+    return np.take(flat, base[:, None, :] + np.asarray(shift)[None, :, None]).sum(axis=2, dtype=np.int64)
 
 
 def correlate_bounded(grid: LookupGrid, points: np.ndarray, center: np.ndarray, offsets_half: int,
@@ -254,8 +272,7 @@ def correlate_bounded(grid: LookupGrid, points: np.ndarray, center: np.ndarray, 
     by, bx = np.meshgrid(bi, bi, indexing="ij")
     corner_cells = np.column_stack((bx.reshape(-1), by.reshape(-1))) * step - offsets_half
     shift = corner_cells[:, 1] * w + corner_cells[:, 0]
-    bound = np.take(pooled.reshape(-1), base[:, None, :] + shift[None, :, None]).sum(axis=2, dtype=np.int64)
-    bound = bound / float(len(points) * GRID_OCCUPIED)                 # (A, blocks)
+    bound = _correlate_sums(pooled.reshape(-1), base, shift) / float(len(points) * GRID_OCCUPIED)   # (A, blocks)
     order = np.argsort(-bound, axis=None)
     best = -1.0
     idx_grid = np.arange(side * side).reshape(side, side)
@@ -265,8 +282,8 @@ def correlate_bounded(grid: LookupGrid, points: np.ndarray, center: np.ndarray, 
             break
         y0, x0 = by.reshape(-1)[k], bx.reshape(-1)[k]
         cols = idx_grid[y0:y0 + b, x0:x0 + b].reshape(-1)
-        r = np.take(grid.flat, base[a][None, :] + (offsets[cols, 1] * w + offsets[cols, 0])[:, None]
-                    ).sum(axis=1, dtype=np.int64) / float(len(points) * GRID_OCCUPIED)
+        r = _correlate_sums(grid.flat, base[a:a + 1], offsets[cols, 1] * w + offsets[cols, 0])[0] \
+            / float(len(points) * GRID_OCCUPIED)
         out[a, cols] = r
         best = max(best, float(r.max()))
     return out
