@@ -7,14 +7,12 @@ lookups up to that far in the future succeed. With a listener (tf_listener.Trans
 each transform a node sends goes straight into its own buffer instead of coming back over /tf.
 """
 import threading
-import time
 
 import rospy
-import rospy.rostime
 from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
-from . import map_msgs
+from . import map_msgs, rostime_wait
 from .shutdown import publish_or_end
 
 
@@ -79,18 +77,9 @@ def _ns(seconds):
     return int(round(seconds * 1e9))
 
 
-def _now_ns():
-    now = rospy.rostime.get_rostime()
-    return now.secs * 10 ** 9 + now.nsecs
+_now_ns = rostime_wait.now_ns
 
 
 def _wait_until(due, now):
-    """Until ROS time `due` [ns] or the next /clock message, whichever first (wall time:
-    sleep for the rest)."""
-    if rospy.rostime.is_wallclock():
-        time.sleep(max(0.0, (due - now) * 1e-9))
-        return
-    cond = rospy.rostime.get_rostime_cond()
-    with cond:
-        if _now_ns() < due:
-            cond.wait(0.5)
+    """Until ROS time `due` [ns], or earlier (rostime_wait.wait_until)."""
+    rostime_wait.wait_until(due)
