@@ -8,7 +8,7 @@
    quaternion, a tilted quaternion, a frame that cannot be transformed.
 3. ~make_plan: a plan to the fetch room (ends at the goal), a goal near a wall moved
    to free space within default_tolerance, a goal given in base_footprint transformed
-   into the map frame, an empty plan for a goal in a wall; ~clear_costmaps answers.
+   into the map frame (from where the robot stands), an empty plan for a goal in a wall; ~clear_costmaps answers.
 """
 import math
 import sys
@@ -24,6 +24,7 @@ from nav_msgs.srv import GetPlan, GetPlanRequest
 from std_srvs.srv import Empty
 from rospy.numpy_msg import numpy_msg
 
+from summit_nav_common.geometry import compose, quaternion_to_yaw
 from summit_nav_common.ros.map_msgs import grid_to_msg
 from summit_nav_common.map_io import load_map
 
@@ -31,6 +32,12 @@ from summit_nav_common.testing import move_base_client as mb, waits
 
 ROOM = (14.0, -3.5)   # [m] the fetch room's centre in the map frame
 WALL_NEAR = (10.0, -1.0)   # [m] near the hall / fetch room wall (world x = 12)
+
+
+def robot_in_map(tf_buf):
+    """(x, y, yaw) of base_footprint in the map frame, from the latest tf."""
+    t = tf_buf.lookup_transform("map", "base_footprint", rospy.Time(0), rospy.Duration(5.0)).transform
+    return t.translation.x, t.translation.y, quaternion_to_yaw(t.rotation)
 
 
 def occupied_cell_near(grid, x, y):
@@ -53,6 +60,8 @@ class MoveBaseBadGoals(unittest.TestCase):
         t.header.frame_id, t.child_frame_id = "map", "odom"
         t.transform.rotation.w = 1.0
         static.sendTransform(t)
+        tf_buf = tf2_ros.Buffer()
+        self.tf_listener = tf2_ros.TransformListener(tf_buf)
         c = mb.client()
 
         # 1. no map yet: the goal waits and move_base says so
@@ -129,11 +138,18 @@ class MoveBaseBadGoals(unittest.TestCase):
         self.assertGreater(len(p.poses), 0)
         end = p.poses[-1].pose.position
         self.assertLessEqual(math.hypot(end.x - near[0], end.y - near[1]), 0.2 + 1e-6)
-        # a goal in base_footprint: 1 m ahead of the robot (at the map origin, facing +x)
+        # a goal in base_footprint: 1 m ahead of the robot, wherever step 1 left it (it may
+        # have turned toward the room before the cancel)
+        before = robot_in_map(tf_buf)
         p = req(1.0, 0.0, frame="base_footprint")
+        after = robot_in_map(tf_buf)
+        self.assertLess(math.hypot(after[0] - before[0], after[1] - before[1]), 0.01, "the robot moved")
+        ahead = compose(before, (1.0, 0.0, 0.0))
+        print(f"ROBOT at ({before[0]:.3f}, {before[1]:.3f}, {before[2]:.3f} rad); 1 m ahead is "
+              f"({ahead[0]:.3f}, {ahead[1]:.3f})")
         self.assertGreater(len(p.poses), 0)
         end = p.poses[-1].pose.position
-        self.assertLess(math.hypot(end.x - 1.0, end.y - 0.0), 0.1)
+        self.assertLess(math.hypot(end.x - ahead[0], end.y - ahead[1]), 0.1)
         rospy.wait_for_service("/move_base/clear_costmaps", 10.0)
         rospy.ServiceProxy("/move_base/clear_costmaps", Empty)()
         rosout.wait("move_base", "costmaps cleared")
