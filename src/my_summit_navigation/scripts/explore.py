@@ -51,10 +51,10 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
 from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Bool, String
-from std_srvs.srv import Empty
 
 from summit_nav_common.geometry import quaternion_to_yaw
 from summit_nav_common.ros.costmap_client import CostmapClient
+from summit_nav_common.ros.move_base_services import clear_costmaps
 from my_summit_navigation import frontiers as fr
 from my_summit_navigation.exploration import Explore
 
@@ -125,7 +125,7 @@ class ExploreNode:
         if r.cancel and self.goal_handle is not None:
             self.goal_handle.cancel()
         if r.clear_costmaps:
-            self.clear_costmaps()
+            clear_costmaps("move_base", CLEAR_WAIT, who="explore: ")
         if r.frontiers is not None:
             pa = PoseArray()
             pa.header = header
@@ -144,14 +144,6 @@ class ExploreNode:
             n = self.explore.sent   # this goal's number: its callback names it
             self.goal_handle = self.client.send_goal(goal, transition_cb=lambda h: self._on_transition(n, h))
         return r.over
-
-    def clear_costmaps(self):
-        name = rospy.resolve_name("move_base") + "/clear_costmaps"
-        try:
-            rospy.wait_for_service(name, CLEAR_WAIT)
-            rospy.ServiceProxy(name, Empty)()
-        except (rospy.ROSException, rospy.ServiceException) as e:
-            rospy.logwarn(f"explore: could not clear the costmaps ({name}): {e}")
 
     def save(self):
         if not self.save_base:

@@ -36,11 +36,11 @@ import rospy
 from move_base_msgs.msg import MoveBaseAction
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import String
-from std_srvs.srv import Empty
 
 from summit_nav_common.diagnostic_checks import Check
 from summit_nav_common.ros.action_client import SimpleActionClient
 from summit_nav_common.ros.diagnostics import NodeDiagnostics
+from summit_nav_common.ros.move_base_services import clear_costmaps
 from my_summit_navigation import cruise as cr
 from my_summit_navigation.goals import move_base_goal, wait_clock
 
@@ -207,21 +207,13 @@ class CruiseNode:
             elif isinstance(cmd, cr.Cancel):
                 self.client.cancel_goal()
             elif isinstance(cmd, cr.ClearCostmaps):
-                self._clear_costmaps()
+                clear_costmaps(self.params["action"], CLEAR_WAIT)
             elif isinstance(cmd, cr.Finish):
                 text = self.summary_text(self.cruise, cmd.summary)
                 rospy.loginfo(f"summary: {text}")
                 self.summary_pub.publish(String(text))
             else:
                 raise TypeError(f"unknown cruise command {cmd!r}")
-
-    def _clear_costmaps(self):
-        name = rospy.resolve_name(self.params["action"]) + "/clear_costmaps"
-        try:
-            rospy.wait_for_service(name, CLEAR_WAIT)
-            rospy.ServiceProxy(name, Empty)()
-        except (rospy.ROSException, rospy.ServiceException) as e:
-            rospy.logwarn(f"could not clear the costmaps ({name}): {e}")
 
     def _update_diagnostics(self):
         """In the loop, after each step: hand the diagnostic task a copy of the status
