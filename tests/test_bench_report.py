@@ -212,6 +212,12 @@ SECTION_RESULTS = {
                               "threads": {"local_costmap": 3.0, "planner": 1.0}}},
     "explore": {"builtin": {"coverage_min": 0.977, "coverage_median": 0.983, "collisions": 0,
                             "runs": [{"precision": 0.99, "recall": 0.99, "sim_s": 99.0}]}},
+    "explore_karto_peer": {"node": "/tmp/peers/devel/lib/slam_karto/slam_karto",
+                           "node_package": {"package": "slam_karto", "version": "0.8.1", "executable": "slam_karto",
+                                            "repository": "ros-perception/slam_karto", "commit": "58ad1b1"},
+                           "worlds": {"willow": {"coverage_min": 0.95, "coverage_median": 0.95, "collisions": 1,
+                                                 "runs": [{"precision": 0.91, "recall": 0.97, "sim_s": 1300.0,
+                                                           "ate_m": 0.12}]}}},
     "patrol": {"rounds": 10, "spots_expected": 30, "reached": 30, "skipped": 0, "collisions": 0,
                "box_clearance_needed_m": 0.46, "boxes": [{"min_dist": 0.64}, {"min_dist": 0.67}]},
     "race_track": {"capacity_wh": 10.0,
@@ -250,6 +256,7 @@ EXPECTED_MET = {
     "planning_peer": [None, None, None],  # the yardstick: no targets
     "stack_cpu": [True, None, False, None, None],  # 0.571 <= 0.6; a collision
     "explore": [True, True],
+    "explore_karto_peer": [None, None],  # the yardstick: no targets
     "patrol": [True],
     "race_track": [False, False, True, True, True, None],  # a resume missed; worst error 0.25 > 0.2
     "multi_robot": [True, None],
@@ -373,6 +380,16 @@ def test_peer_section_names_the_executable_and_how_to_measure_it():
     assert "--gmapping EXECUTABLE" in bench_report.measure_command("slam_bag_peer")
     page = bench_report.render_page(bench_report.empty_store())
     assert 'make bench BENCH_ARGS="--only slam_bag_peer --gmapping EXECUTABLE' in page
+
+
+def test_explore_karto_peer_names_the_real_node_and_how_to_measure_it():
+    rows = bench_report.rows_explore_karto_peer(SECTION_RESULTS["explore_karto_peer"])
+    assert rows[0]["figure"].startswith("exploration of willow with slam_karto 0.8.1 (ros-perception/slam_karto @ "
+                                        "58ad1b1) from 1 seeded start(s)")
+    assert rows[0]["measured"] == "0.950 / 0.950, 1, 1300 s"
+    assert rows[1]["measured"] == "0.910 / 0.970; 0.120 m"
+    assert bench_report.measure_command("explore_karto_peer").endswith(
+        '--only explore_karto_peer --karto EXECUTABLE [--karto-setup SETUP_BASH]"')
 
 
 def test_planning_peer_section_names_the_executable_its_failed_pairs_and_how_to_measure_it():

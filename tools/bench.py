@@ -66,6 +66,9 @@ beside each time. Sections:
               collisions, simulated time, map precision / recall
   explore_karto the same with slam:=karto (slam_karto, loop closure) on willow-full from one
               start (EXPLORE_KARTO_RUNS)
+  explore_karto_peer (only with --only explore_karto_peer --karto EXE [--karto-setup SETUP])
+              explore_karto with that slam_karto executable (the real one) in ours' place,
+              the same YAML and start
   patrol      the patrol: 10 rounds over table, room, turtle with a box dropped on the route
               twice: spots reached / skipped, collisions, the boxes kept clear of
   race_track  the race-track tutorial (issue 40): 10 laps at 1x with a battery small enough for
@@ -445,21 +448,24 @@ EXPLORE_RUNS = {"builtin": 5, "willow": 1}   # seeded starts per world
 EXPLORE_KARTO_RUNS = {"willow": 1}           # issue 42: the large building, where loops close
 
 
-def bench_explore(worlds=None, slam="gmapping"):
+def bench_explore(worlds=None, slam="gmapping", node=None, node_setup=None):
     """bench_explore.py on the built-in world (5 seeded starts) and willow-full (1), or
     only `worlds`, at real time: slam_gmapping, move_base on the growing map and explore
-    together need about 1.5 cores, so faster than real time starves them on 2 cores."""
+    together need about 1.5 cores, so faster than real time starves them on 2 cores.
+    node: another SLAM executable run in ours' place (node_setup: the bash file its
+    environment needs), for explore_karto_peer; its result is {"node", "worlds"}."""
     script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_explore.py")
+    extra = (["--node", node] + (["--node-setup", node_setup] if node_setup else [])) if node else []
     res = {}
     for world, runs in (EXPLORE_KARTO_RUNS if slam == "karto" else EXPLORE_RUNS).items():
         if worlds and world not in worlds:
             continue
-        path = os.path.join(OUT, f"bench_explore_{slam}_{world}.json")
+        path = os.path.join(OUT, f"bench_explore_{slam}{'_peer' if node else ''}_{world}.json")
         subprocess.run([sys.executable, script, "--world", world, "--runs", str(runs), "--speed", "1",
-                        "--slam", slam, "--json", path], check=True)
+                        "--slam", slam, "--json", path] + extra, check=True)
         with open(path) as f:
             res[world] = json.load(f)
-    return res
+    return {"node": node, "worlds": res} if node else res
 
 
 def bench_patrol():
@@ -606,6 +612,7 @@ def bench_e2e():
 # (its option, whose --OPTION-setup goes with it; what the executable is).
 PEER_SECTIONS = {"slam_bag_peer": ("gmapping", "the real gmapping's slam_gmapping"),
                  "slam_bag_karto_peer": ("karto", "the real slam_karto (build_karto.sh)"),
+                 "explore_karto_peer": ("karto", "the real slam_karto (build_karto.sh)"),
                  "slam_replay_peer": ("gmapping-replay", "the real gmapping's slam_gmapping_replay"),
                  "planning_peer": ("move-base", "the real move_base"),
                  "ekf_peer": ("ekf-node", "the real robot_localization's ekf_localization_node")}
@@ -641,9 +648,9 @@ def main():
     ap.add_argument("--gmapping-setup", metavar="SETUP_BASH",
                     help="slam_bag_peer: a setup.bash the other executable's environment needs")
     ap.add_argument("--karto", metavar="EXECUTABLE",
-                    help="slam_bag_karto_peer: the other slam_karto executable (e.g. the real slam_karto's)")
+                    help="slam_bag_karto_peer, explore_karto_peer: the other slam_karto executable (e.g. the real slam_karto's)")
     ap.add_argument("--karto-setup", metavar="SETUP_BASH",
-                    help="slam_bag_karto_peer: a setup.bash the other executable's environment needs")
+                    help="slam_bag_karto_peer, explore_karto_peer: a setup.bash the other executable's environment needs")
     ap.add_argument("--gmapping-replay", metavar="EXECUTABLE",
                     help="slam_replay_peer: the real gmapping's seeded player slam_gmapping_replay")
     ap.add_argument("--gmapping-replay-setup", metavar="SETUP_BASH",
@@ -722,6 +729,8 @@ def main():
         "stack_cpu": lambda: bench_stack_cpu(max(1, min(args.runs, 3))),
         "explore": lambda: bench_explore(args.explore_worlds),
         "explore_karto": lambda: bench_explore(args.explore_worlds, slam="karto"),
+        "explore_karto_peer": lambda: bench_explore(args.explore_worlds, slam="karto", node=os.path.abspath(args.karto),
+                                                    node_setup=args.karto_setup and os.path.abspath(args.karto_setup)),
         "patrol": bench_patrol,
         "race_track": bench_race_track,
         "multi_robot": lambda: bench_multi_robot(min(args.runs, 3)),

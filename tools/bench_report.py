@@ -70,6 +70,9 @@ SECTIONS = {
                   "collisions; where move_base's time goes (one profiled run)"),
     "explore": "frontier exploration (explore.launch, real time)",
     "explore_karto": "frontier exploration of willow-full with slam:=karto (explore.launch, real time)",
+    "explore_karto_peer": ("the real slam_karto (or any slam_karto-compatible executable, given with --karto) in "
+                           "explore_karto's place: the same launch, YAML, start and scoring: the oracle for its "
+                           "targets"),
     "patrol": "the patrol: 10 rounds x 3 spots, a box dropped on the route twice (real time)",
     "race_track": ("the race-track tutorial as a deployed robot: 10 laps at 1x with charging stops and a box on "
                    "the narrow section, the tutorial's performance table (nav_health), the adaptive parameters "
@@ -716,6 +719,12 @@ def rows_explore_karto(res):
     return rows_explore(res, EXPLORE_KARTO_COVERAGE, EXPLORE_KARTO_PRECISION, "slam_karto")
 
 
+def rows_explore_karto_peer(res):
+    """The other slam_karto's exploration: explore_karto's rows without targets (it is the
+    yardstick)."""
+    return [dict(r, target=None, met=None) for r in rows_explore(res["worlds"], slam=node_label(res))]
+
+
 def rows_patrol(res):
     boxes = ", ".join(f"{b['min_dist']:.2f} m" for b in res["boxes"]) or "none dropped"
     clear = res["box_clearance_needed_m"]
@@ -864,7 +873,7 @@ ROWS = {"laser": rows_laser, "sim_rtf": rows_sim_rtf, "slam_carmen": rows_slam_c
         "amcl": rows_amcl, "ekf": rows_ekf, "ekf_peer": rows_ekf_peer, "ekf_downstream": rows_ekf_downstream,
         "planning": rows_planning,
         "planning_peer": rows_planning_peer, "stack_cpu": rows_stack_cpu, "explore": rows_explore,
-        "explore_karto": rows_explore_karto,
+        "explore_karto": rows_explore_karto, "explore_karto_peer": rows_explore_karto_peer,
         "patrol": rows_patrol, "race_track": rows_race_track,
         "multi_robot": rows_multi_robot, "e2e": rows_e2e, "memory": rows_memory}
 
@@ -986,6 +995,7 @@ RENDER_COMMAND = "make bench-page"
 
 MEASURE_ARGS = {"slam_bag_peer": " --gmapping EXECUTABLE [--gmapping-setup SETUP_BASH]",
                 "slam_bag_karto_peer": " --karto EXECUTABLE [--karto-setup SETUP_BASH]",
+                "explore_karto_peer": " --karto EXECUTABLE [--karto-setup SETUP_BASH]",
                 "slam_replay_peer": " --gmapping-replay EXECUTABLE [--gmapping-replay-setup SETUP_BASH]",
                 "planning_peer": " --move-base EXECUTABLE [--move-base-setup SETUP_BASH]",
                 "ekf_peer": " --ekf-node EXECUTABLE [--ekf-node-setup SETUP_BASH]"}

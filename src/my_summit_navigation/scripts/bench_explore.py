@@ -11,6 +11,12 @@ benchmark's evaluation).
 
     bench_explore.py [--world builtin|willow] [--runs 5] [--seed 0] [--speed 3]
                      [--slam gmapping|karto] [--json PATH]
+                     [--node EXECUTABLE [--node-setup SETUP_BASH]]
+
+--node runs another executable with the SLAM node's interface in ours' place (e.g. the
+real slam_karto, with the same YAML), through explore.launch's slam_launch_prefix: a
+script that drops our node's path from the command and runs EXECUTABLE with the rest (the
+name, the remappings), in the environment --node-setup adds (sourced --extend).
 
 Each run is a child process (rospy binds one process to one ROS master).
 """
@@ -18,6 +24,7 @@ import argparse
 import json
 import math
 import os
+import shlex
 import subprocess
 import sys
 import time
@@ -68,15 +75,34 @@ def judged_range(slam):
         return SlamConfig.from_dict(yaml.safe_load(f)).maxUrange
 
 
-def one_run(world_name, pose, speed, out_dir, slam="gmapping"):
-    """One exploration in this process; returns the result dict."""
+def node_prefix(path, node, setup=None):
+    """Write to `path` the launch prefix that runs `node` instead of the launched SLAM
+    node: roslaunch calls it as PREFIX OUR_NODE ARGS..., it runs NODE ARGS... after
+    sourcing `setup` (--extend). Returns path."""
+    lines = ["#!/bin/bash", "# written by bench_explore.py: run another SLAM node in ours' place", "shift"]
+    if setup:
+        lines.append(f"source {shlex.quote(setup)} --extend")
+    lines.append(f'exec {shlex.quote(node)} "$@"')
+    with open(path + ".part", "w") as f:
+        f.write("\n".join(lines) + "\n")
+    os.chmod(path + ".part", 0o755)
+    os.replace(path + ".part", path)
+    return path
+
+
+def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_setup=None):
+    """One exploration in this process (with `node` in place of our SLAM node when
+    given); returns the result dict."""
     from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for_sim_time_param
     world_yaml = WORLDS[world_name]
     x, y, yaw = pose
-    log = os.path.join(out_dir, f"explore_{world_name}_{slam}_{x:.1f}_{y:.1f}.log")
+    tag = slam + ("_peer" if node else "")
+    log = os.path.join(out_dir, f"explore_{world_name}_{tag}_{x:.1f}_{y:.1f}.log")
     args = ["my_summit_navigation", "explore.launch", "sim:=true", f"world:={world_yaml}", f"x:={x}", f"y:={y}",
             f"yaw:={yaw}", f"speed:={speed}", f"save_map:={os.path.splitext(log)[0]}_map",
             f"debug_dump:={os.path.splitext(log)[0]}_dwa", f"slam:={slam}"]
+    if node:
+        args.append("slam_launch_prefix:=" + node_prefix(os.path.splitext(log)[0] + "_node.sh", node, node_setup))
     with RoslaunchSession(args, log=log) as session:
         wait_for_sim_time_param(session)
         import rospy
@@ -117,7 +143,7 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping"):
         quality = rec.evaluate(world, judged_range(slam), LaserParams())
         # the map judged against the true walls, with the true and SLAM trajectories
         write_png(quality, os.path.splitext(log)[0] + "_judged.png", world)
-    return {"world": world_name, "slam": slam, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
+    return {"world": world_name, "slam": slam, "node": node, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
             "finished": bool(st["done"]), "summary": st["summary"], "sim_s": round(sim_t, 1),
             "wall_s": round(wall_t, 1), "collisions": int(st["coll"]), "ate_m": round(quality["ate_m"], 4),
             "precision": round(quality["precision"], 4), "recall": round(quality["recall"], 4)}
@@ -131,13 +157,22 @@ def main(argv=None):
     ap.add_argument("--speed", type=float, default=3.0)
     ap.add_argument("--slam", choices=("gmapping", "karto"), default="gmapping", help="the SLAM node explore.launch runs")
     ap.add_argument("--json", help="write the results here")
+    ap.add_argument("--node", metavar="EXECUTABLE", help="run this SLAM node (e.g. the real slam_karto) in ours' place")
+    ap.add_argument("--node-setup", metavar="SETUP_BASH", help="source this file (--extend) for --node's environment")
     ap.add_argument("--child", nargs=3, type=float, help=argparse.SUPPRESS)
     ap.add_argument("--child-out", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    from summit_nav_common.testing.roslaunch_session import check_node_args
+    try:
+        check_node_args(args.node, args.node_setup)
+    except ValueError as e:
+        ap.error(str(e))
+    node = args.node and os.path.abspath(args.node)
+    node_setup = args.node_setup and os.path.abspath(args.node_setup)
     out_dir = os.path.join(WS, "output", "bench_explore")
     os.makedirs(out_dir, exist_ok=True)
     if args.child:
-        res = one_run(args.world, tuple(args.child), args.speed, out_dir, args.slam)
+        res = one_run(args.world, tuple(args.child), args.speed, out_dir, args.slam, node, node_setup)
         text = json.dumps(res)   # all of it or nothing: the parent reads what is there
         with open(args.child_out + ".part", "w") as f:
             f.write(text)
@@ -149,7 +184,8 @@ def main(argv=None):
         if os.path.exists(tmp):
             os.remove(tmp)
         subprocess.run([sys.executable, os.path.abspath(__file__), "--world", args.world, "--speed", str(args.speed),
-                        "--slam", args.slam, "--child", *map(str, pose), "--child-out", tmp])
+                        "--slam", args.slam, "--child", *map(str, pose), "--child-out", tmp]
+                       + (["--node", node] if node else []) + (["--node-setup", node_setup] if node_setup else []))
         if os.path.exists(tmp):
             with open(tmp) as f:
                 r = json.load(f)
@@ -160,14 +196,15 @@ def main(argv=None):
         runs.append(r)
         print(json.dumps(r), flush=True)
     covs = [r["coverage"] for r in runs]
-    summary = {"world": args.world, "slam": args.slam, "runs": runs, "coverage_min": min(covs), "coverage_median": float(np.median(covs)),
+    summary = {"world": args.world, "slam": args.slam, "node": node, "runs": runs, "coverage_min": min(covs), "coverage_median": float(np.median(covs)),
                "all_finished": all(r["finished"] for r in runs),
                "collisions": sum(r.get("collisions", 0) for r in runs),
                "sim_s_median": float(np.median([r.get("sim_s", 0.0) for r in runs]))}
     print(json.dumps({k: v for k, v in summary.items() if k != "runs"}))
     if args.json:
-        with open(args.json, "w") as f:
+        with open(args.json + ".part", "w") as f:
             json.dump(summary, f, indent=1)
+        os.replace(args.json + ".part", args.json)
     return 0
 
 
