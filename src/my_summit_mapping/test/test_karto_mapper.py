@@ -1,5 +1,6 @@
 """KartoMapper: parameters, bad input, serialization, and a loop closed in a synthetic
 square corridor (drifted odometry corrected)."""
+import dataclasses
 import math
 import os
 
@@ -106,7 +107,23 @@ def test_params_defaults_alias_and_unknown_keys():
     assert p.resolution == 0.1 and p.throttle_scans == 2
     assert p.minimum_travel_heading == pytest.approx(math.radians(10))
     assert any("foo" in n for n in notes)
-    assert KartoParams().loop_match_maximum_variance_coarse == pytest.approx(0.16)
+    assert KartoParams().loop_match_maximum_variance_coarse == pytest.approx(0.4)
+
+
+def test_variance_parameters_take_slam_karto_values_and_square_them():
+    """slam_karto hands distance_variance_penalty, angle_variance_penalty and
+    loop_match_maximum_variance_coarse to open_karto's setters, which square them: its
+    documented defaults 0.3, 0.349 and 0.4 are open_karto's variances 0.09, 0.1218 and
+    0.16. Ours took the YAML value as the variance, so a user's 0.3 penalized 3.3 times
+    more loosely than the real node."""
+    p = KartoParams()
+    assert (p.distance_variance_penalty, p.angle_variance_penalty) == pytest.approx((0.3, math.radians(20.0)))
+    settings = KartoMapper(p, LASER)._sequential.settings
+    assert settings.distance_variance_penalty == pytest.approx(0.09)
+    assert settings.angle_variance_penalty == pytest.approx(math.radians(20.0) ** 2)
+    yaml_values, _ = KartoParams.from_params({"distance_variance_penalty": 0.5, "angle_variance_penalty": 0.2})
+    settings = KartoMapper(yaml_values, LASER)._sequential.settings
+    assert (settings.distance_variance_penalty, settings.angle_variance_penalty) == pytest.approx((0.25, 0.04))
 
 
 @pytest.mark.parametrize("bad", [{"resolution": -1.0}, {"throttle_scans": 0}, {"do_loop_closing": "yes"},
@@ -247,6 +264,28 @@ def test_save_load_round_trip_and_continue(tmp_path, loop_data):
     assert_allclose(res.pose[:2], truth[k, :2], atol=0.03)
     assert abs(res.pose[2] - truth[k, 2]) < 0.01
     assert any(j == res.node_id for _, j, _ in back.edges())
+
+
+def test_version_1_file_reads_its_variances_as_slam_karto_values(tmp_path, loop_data, monkeypatch):
+    """Format 1 stored the three "variance" parameters as variances; they read back as the
+    square roots that KartoParams now holds."""
+    from my_summit_mapping.karto import serialize
+    truth, odom, scans = loop_data
+    mapper, _ = run(truth[:10], odom[:10], scans[:10])
+    mapper.params = dataclasses.replace(mapper.params, distance_variance_penalty=0.09,
+                                        angle_variance_penalty=0.04, loop_match_maximum_variance_coarse=0.16)
+    monkeypatch.setattr(serialize, "FORMAT_VERSION", 1)
+    path = str(tmp_path / "v1.npz")
+    mapper.save(path)
+    monkeypatch.undo()
+    back = KartoMapper.load(path)
+    assert (back.params.distance_variance_penalty, back.params.angle_variance_penalty,
+            back.params.loop_match_maximum_variance_coarse) == pytest.approx((0.3, 0.2, 0.4))
+    monkeypatch.setattr(serialize, "FORMAT_VERSION", 7)
+    mapper.save(str(tmp_path / "v7.npz"))
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match="v7.npz: format version 7"):
+        KartoMapper.load(str(tmp_path / "v7.npz"))
 
 
 def test_corrupt_and_foreign_files_raise_value_error(tmp_path, loop_data):

@@ -11,7 +11,7 @@ Sparse Pose Adjustment for 2D Mapping"); Olson 2009 for the matcher.
    (a chain) of at least `loop_match_minimum_chain_size` nodes is a candidate.
 3. `match_chain` (in the mapper): a coarse match of the current scan against the chain's
    points over the loop search window; accepted when its response reaches
-   `loop_match_minimum_response_coarse` and its x and y variances stay under
+   `loop_match_minimum_response_coarse` and its x and y variances stay under the square of
    `loop_match_maximum_variance_coarse` (an ambiguous match, e.g. along a corridor, has a
    wide spread); then a fine match from there that must reach
    `loop_match_minimum_response_fine`.

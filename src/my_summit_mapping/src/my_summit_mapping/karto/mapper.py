@@ -81,7 +81,9 @@ def _p(default, meaning, lo=None, hi=None):
 
 @dataclass
 class KartoParams:
-    """slam_karto's parameters (ROS names) with open_karto's defaults; units in each meaning."""
+    """slam_karto's parameters (ROS names, values as a slam_karto YAML gives them) with open_karto's
+    defaults; units in each meaning. The three "variance" ones are not variances: slam_karto
+    hands them to open_karto's setters, which square them."""
     map_update_interval: float = _p(5.0, "seconds between map publications [s] (the node's)", 0.0)
     resolution: float = _p(0.05, "map cell size [m] (alias: delta)", 1e-4)
     throttle_scans: int = _p(1, "use every n-th scan [-]", 1)
@@ -97,7 +99,8 @@ class KartoParams:
     loop_search_maximum_distance: float = _p(4.0, "loop candidates lie within this [m]", 0.0)
     do_loop_closing: bool = _p(True, "close loops")
     loop_match_minimum_chain_size: int = _p(10, "nodes a loop candidate chain needs [-]", 1)
-    loop_match_maximum_variance_coarse: float = _p(0.4 ** 2, "coarse loop match x / y variance bound [m^2]", 0.0)
+    loop_match_maximum_variance_coarse: float = _p(0.4, "coarse loop match x / y spread bound [m] (slam_karto "
+                                                        "squares it: the variance bound is its square)", 0.0)
     loop_match_minimum_response_coarse: float = _p(0.7, "coarse loop match response needed [-]", 0.0, 1.0)
     loop_match_minimum_response_fine: float = _p(0.7, "fine loop match response needed [-]", 0.0, 1.0)
     correlation_search_space_dimension: float = _p(0.3, "sequential search window side [m]", 1e-3)
@@ -106,8 +109,10 @@ class KartoParams:
     loop_search_space_dimension: float = _p(8.0, "loop search window side [m]", 1e-3)
     loop_search_space_resolution: float = _p(0.05, "loop lookup grid cell [m]", 1e-4)
     loop_search_space_smear_deviation: float = _p(0.03, "loop hit smear std [m]", 0.0)
-    distance_variance_penalty: float = _p(0.3 ** 2, "offset penalty variance [m^2]", 1e-9)
-    angle_variance_penalty: float = _p(math.radians(20.0) ** 2, "heading penalty variance [rad^2]", 1e-9)
+    distance_variance_penalty: float = _p(0.3, "offset penalty spread [m] (slam_karto squares it: the penalty's "
+                                               "variance is its square)", 1e-9)
+    angle_variance_penalty: float = _p(math.radians(20.0), "heading penalty spread [rad] (slam_karto squares it: "
+                                                           "the penalty's variance is its square)", 1e-9)
     fine_search_angle_offset: float = _p(math.radians(0.2), "fine heading step [rad]", 1e-6)
     coarse_search_angle_offset: float = _p(math.radians(20.0), "coarse heading window +- [rad]", 0.0)
     coarse_angle_resolution: float = _p(math.radians(2.0), "coarse heading step [rad]", 1e-6)
@@ -206,8 +211,8 @@ class KartoMapper:
         p = params
         settings = cm.MatcherSettings(
             coarse_search_angle_offset=p.coarse_search_angle_offset, coarse_angle_resolution=p.coarse_angle_resolution,
-            fine_search_angle_offset=p.fine_search_angle_offset, distance_variance_penalty=p.distance_variance_penalty,
-            angle_variance_penalty=p.angle_variance_penalty, minimum_distance_penalty=p.minimum_distance_penalty,
+            fine_search_angle_offset=p.fine_search_angle_offset, distance_variance_penalty=p.distance_variance_penalty ** 2,
+            angle_variance_penalty=p.angle_variance_penalty ** 2, minimum_distance_penalty=p.minimum_distance_penalty,
             minimum_angle_penalty=p.minimum_angle_penalty, use_response_expansion=p.use_response_expansion)
         self._sequential = cm.ScanMatcher(cm.SearchSpace(p.correlation_search_space_dimension,
                                                          p.correlation_search_space_resolution,
@@ -430,8 +435,8 @@ class KartoMapper:
             coarse = self._loop.match(node.points, ref, node.pose, penalize=False, refine=False,
                                       min_response=p.loop_match_minimum_response_coarse)
             if not (coarse.response >= p.loop_match_minimum_response_coarse
-                    and coarse.covariance[0, 0] < p.loop_match_maximum_variance_coarse
-                    and coarse.covariance[1, 1] < p.loop_match_maximum_variance_coarse):
+                    and coarse.covariance[0, 0] < p.loop_match_maximum_variance_coarse ** 2
+                    and coarse.covariance[1, 1] < p.loop_match_maximum_variance_coarse ** 2):
                 continue
             fine = self._sequential.match(node.points, ref, coarse.pose, penalize=False, refine=True)
             if fine.response < p.loop_match_minimum_response_fine:

@@ -26,7 +26,11 @@ import numpy as np
 from .pose_graph import EDGE_KINDS, Node
 
 MAGIC = "karto_pose_graph"
-FORMAT_VERSION = 1
+# 2: the three "variance" parameters stored as slam_karto's ROS values (their square roots);
+# version 1 stored the variances themselves, and reads converted
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+SQUARED_IN_V1 = ("distance_variance_penalty", "angle_variance_penalty", "loop_match_maximum_variance_coarse")
 ARRAYS = ("stamps", "odom_poses", "poses", "ranges", "edge_ij", "edge_kind", "edge_z", "edge_info",
           "running", "params", "laser", "stats")
 
@@ -94,15 +98,19 @@ def load_mapper(cls, path: str, params=None):
     a = _read(path)
     if str(a.get("magic", "")) != MAGIC:
         raise ValueError(f"{path}: not a serialized karto map (magic {str(a.get('magic', None))!r})")
-    if int(a.get("version", -1)) != FORMAT_VERSION:
-        raise ValueError(f"{path}: format version {int(a.get('version', -1))}, this code reads {FORMAT_VERSION}")
+    version = int(a.get("version", -1))
+    if version not in READABLE_VERSIONS:
+        raise ValueError(f"{path}: format version {version}, this code reads {READABLE_VERSIONS}")
     missing = [k for k in ARRAYS + ("checksum",) if k not in a]
     if missing:
         raise ValueError(f"{path}: corrupt karto map, missing {missing}")
     if str(a["checksum"]) != _checksum(a):
         raise ValueError(f"{path}: corrupt karto map (checksum mismatch)")
     try:
-        saved = KartoParams(**json.loads(str(a["params"])))
+        saved_dict = json.loads(str(a["params"]))
+        if version == 1:
+            saved_dict.update({k: float(saved_dict[k]) ** 0.5 for k in SQUARED_IN_V1 if k in saved_dict})
+        saved = KartoParams(**saved_dict)
         laser_dict = json.loads(str(a["laser"]))
         laser_dict["mount"] = tuple(laser_dict["mount"])
         laser = LaserGeometry(**laser_dict)
