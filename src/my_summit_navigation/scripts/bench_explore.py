@@ -113,7 +113,8 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_s
         from summit_xl_sim.sim import LaserParams
         from summit_xl_sim.world import World
         rospy.init_node("bench_explore", anonymous=True, disable_signals=True)
-        rec = TourRecorder(f"slam_{slam}")
+        # another node (the real slam_karto) has no ~trajectory: its online pose from tf
+        rec = TourRecorder(f"slam_{slam}", trajectory_from_tf=bool(node))
         st = {"done": False, "summary": None, "coll": 0}
         rospy.Subscriber("/explore/done", Bool, lambda m: st.update(done=m.data), queue_size=1)
         rospy.Subscriber("/explore/summary", String, lambda m: st.update(summary=m.data), queue_size=1)
@@ -146,6 +147,7 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_s
     return {"world": world_name, "slam": slam, "node": node, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
             "finished": bool(st["done"]), "summary": st["summary"], "sim_s": round(sim_t, 1),
             "wall_s": round(wall_t, 1), "collisions": int(st["coll"]), "ate_m": round(quality["ate_m"], 4),
+            "ate_of": "online (tf map -> base_footprint)" if node else "the node's ~trajectory",
             "precision": round(quality["precision"], 4), "recall": round(quality["recall"], 4)}
 
 

@@ -18,9 +18,14 @@ class TourRecorder:
     """Ground truth, the tour's end, the latest map and SLAM trajectory, from ROS topics.
 
     slam_node: the SLAM node whose ~trajectory is recorded (slam_gmapping or slam_karto).
+    trajectory_from_tf: for a node without ~trajectory (the real slam_karto): the
+    trajectory is map -> base_footprint sampled from tf every TF_SAMPLE_PERIOD (the online
+    estimate, not the optimized one).
     """
 
-    def __init__(self, slam_node="slam_gmapping"):
+    TF_SAMPLE_PERIOD = 0.2   # [s sim]
+
+    def __init__(self, slam_node="slam_gmapping", trajectory_from_tf=False):
         import rospy
         from nav_msgs.msg import OccupancyGrid, Odometry, Path
         from rospy.numpy_msg import numpy_msg
@@ -35,9 +40,38 @@ class TourRecorder:
             rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=200),
             rospy.Subscriber("/tour_driver/done", Bool, self._on_done, queue_size=1),
             rospy.Subscriber("/map", numpy_msg(OccupancyGrid), self._on_map, queue_size=1,
-                             buff_size=2 ** 24),
-            rospy.Subscriber(f"/{slam_node}/trajectory", Path, self._on_path, queue_size=1,
-                             buff_size=2 ** 22)]
+                             buff_size=2 ** 24)]
+        if trajectory_from_tf:
+            import tf2_ros
+            self._tf_buffer = tf2_ros.Buffer()
+            self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
+            self._tf_poses = []
+            self._tf_timer = rospy.Timer(rospy.Duration(self.TF_SAMPLE_PERIOD), self._sample_tf)
+        else:
+            self.subs.append(rospy.Subscriber(f"/{slam_node}/trajectory", Path, self._on_path, queue_size=1,
+                                              buff_size=2 ** 22))
+
+    def _sample_tf(self, _event):
+        import rospy
+        import tf2_ros
+        from geometry_msgs.msg import PoseStamped
+        from nav_msgs.msg import Path
+        try:
+            t = self._tf_buffer.lookup_transform("map", "base_footprint", rospy.Time(0))
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException):
+            return
+        if self._tf_poses and t.header.stamp <= self._tf_poses[-1].header.stamp:
+            return
+        ps = PoseStamped()
+        ps.header = t.header
+        ps.pose.position.x, ps.pose.position.y = t.transform.translation.x, t.transform.translation.y
+        ps.pose.orientation = t.transform.rotation
+        self._tf_poses.append(ps)
+        path = Path()
+        path.header = t.header
+        path.poses = list(self._tf_poses)
+        with self.lock:
+            self.path_msg = path
 
     def _on_truth(self, msg):
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
