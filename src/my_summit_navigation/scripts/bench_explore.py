@@ -44,6 +44,7 @@ WORLDS = {
 CLEARANCE = 0.8          # [m] start poses at least this far from obstacles
 # [s] per run; willow's leaves room for explore's second-chance round at the end
 WALL_LIMIT = {"builtin": 900.0, "willow": 3600.0, "two_rooms": 400.0}
+FINAL_MAP_WAIT = 60.0    # [s wall] after the end for a map stamped at it (maps come every 5 s)
 
 
 def start_poses(world_yaml, n, seed):
@@ -126,9 +127,12 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_s
             time.sleep(0.5)
         sim_t = rospy.Time.now().to_sec()
         wall_t = time.monotonic() - w0
-        # a map stamped after the end, for the evaluation
+        # a map stamped after the end, for the evaluation; a node that has stopped
+        # publishing (the real slam_karto, once the robot stands still) is judged on its
+        # last map, whose stamp the result records
         t_end = sim_t
-        while time.monotonic() - w0 < WALL_LIMIT[world_name] + 60 and session.alive():
+        w_end = time.monotonic()
+        while time.monotonic() - w_end < FINAL_MAP_WAIT and session.alive():
             with rec.lock:
                 m, p = rec.map_msg, rec.path_msg
             if m is not None and p is not None and m.header.stamp.to_sec() >= t_end - 5.0:
@@ -136,6 +140,7 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_s
             time.sleep(0.5)
         with rec.lock:
             m = rec.map_msg
+        map_stamp = m.header.stamp.to_sec()
         world_map = load_map(world_yaml)
         grid = np.asarray(m.data, np.int8).reshape(m.info.height, m.info.width)
         cov = exploration_coverage(world_map.data, world_map.resolution, world_map.origin[:2], pose, grid,
@@ -146,6 +151,7 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_s
         write_png(quality, os.path.splitext(log)[0] + "_judged.png", world)
     return {"world": world_name, "slam": slam, "node": node, "start": [round(v, 3) for v in pose], "coverage": round(cov, 4),
             "finished": bool(st["done"]), "summary": st["summary"], "sim_s": round(sim_t, 1),
+            "map_stamp_s": round(map_stamp, 1),
             "wall_s": round(wall_t, 1), "collisions": int(st["coll"]), "ate_m": round(quality["ate_m"], 4),
             "ate_of": "online (tf map -> base_footprint)" if node else "the node's ~trajectory",
             "precision": round(quality["precision"], 4), "recall": round(quality["recall"], 4)}
