@@ -217,7 +217,8 @@ SECTION_RESULTS = {
                                             "repository": "ros-perception/slam_karto", "commit": "58ad1b1"},
                            "worlds": {"willow": {"coverage_min": 0.95, "coverage_median": 0.95, "collisions": 1,
                                                  "runs": [{"precision": 0.91, "recall": 0.97, "sim_s": 1300.0,
-                                                           "ate_m": 0.12}]}}},
+                                                           "ate_m": 0.12,
+                                                           "ate_of": "online (tf map -> base_footprint)"}]}}},
     "patrol": {"rounds": 10, "spots_expected": 30, "reached": 30, "skipped": 0, "collisions": 0,
                "box_clearance_needed_m": 0.46, "boxes": [{"min_dist": 0.64}, {"min_dist": 0.67}]},
     "race_track": {"capacity_wh": 10.0,
@@ -388,6 +389,7 @@ def test_explore_karto_peer_names_the_real_node_and_how_to_measure_it():
                                         "58ad1b1) from 1 seeded start(s)")
     assert rows[0]["measured"] == "0.950 / 0.950, 1, 1300 s"
     assert rows[1]["measured"] == "0.910 / 0.970; 0.120 m"
+    assert rows[1]["figure"].endswith("the online pose's ATE (tf)")
     assert bench_report.measure_command("explore_karto_peer").endswith(
         '--only explore_karto_peer --karto EXECUTABLE [--karto-setup SETUP_BASH]"')
 
