@@ -47,6 +47,9 @@ class SimWalls(unittest.TestCase):
             self.cmd.publish(t)
             min_front = min(min_front, self.truth.msg.pose.pose.position.x - HALF_LENGTH)
             rate.sleep()
+        # stop: else the last command, arriving late on a loaded machine, restarts the
+        # watchdog after the next test's set_robot_pose and drives the robot on
+        self.cmd.publish(Twist())
         return min_front
 
     def test_1_wall_stops_robot_and_counts_one_collision(self):
