@@ -279,14 +279,19 @@ BAG_SEEDS = (1, 2, 3, 4, 5)   # median and worst of 5 (the real gmapping's refer
 CARMEN_LOGS = {"intel": "intel-corrected.log.gz", "aces": "aces-corrected.log.gz"}
 
 
+def _node_args(node, setup, setup_flag="--node-setup"):
+    """The arguments that hand a benchmark script another executable (node) in ours' place
+    and the bash file its environment needs: [] when node is None."""
+    return (["--node", node] + ([setup_flag, setup] if setup else [])) if node else []
+
+
 def bench_slam_bag(logs=None, rate=BAG_RATE, seeds=BAG_SEEDS, node=None, node_setup=None, slam="gmapping"):
     """bench_slam_bag.py on each of `logs` (names, default intel and aces); slam: the node
     under test (gmapping or karto); node: another executable with its interface run instead
     of ours (node_setup: the bash file its environment needs), for the *_peer sections."""
     res = {"rate": rate, "logs": {}, "node": node, "slam": slam}
     tag = ("_karto" if slam == "karto" else "") + ("_peer" if node else "")
-    extra = (["--node", node] + (["--node-setup", node_setup] if node_setup else [])) if node else []
-    extra += ["--slam", slam]
+    extra = _node_args(node, node_setup) + ["--slam", slam]
     for name in logs or list(CARMEN_LOGS):
         res["logs"][name] = _run_script(
             "my_summit_mapping", "bench_slam_bag.py",
@@ -379,7 +384,7 @@ def bench_ekf(node=None, node_setup=None, seeds=EKF_SEEDS):
     res = _run_script("my_summit_localization", "bench_ekf.py",
                       ["--seeds", *map(str, seeds), "--bags", os.path.join(OUT, "ekf_bags"),
                        "--out", os.path.join(OUT, f"bench_ekf{tag}")]
-                      + ((["--node", node] + (["--setup", node_setup] if node_setup else [])) if node else []),
+                      + _node_args(node, node_setup, "--setup"),
                       f"bench_ekf{tag}.json")
     if not node:
         peer = bench_report.load_store().get("sections", {}).get("ekf_peer")
@@ -415,9 +420,9 @@ def bench_planning_peer(node, node_setup=None):
         combos[key] = _run_script(
             "my_summit_path_planning", "bench_move_base_live.py",
             ["--world", "willow", "--pairs", str(PEER_WILLOW_PAIRS), "--global-planner", global_kind,
-             "--local-planner", local_kind, "--speed", str(PEER_SPEED[local_kind]), "--node", node,
+             "--local-planner", local_kind, "--speed", str(PEER_SPEED[local_kind]),
              "--out", os.path.join(OUT, "planning_peer", key)]
-            + (["--node-setup", node_setup] if node_setup else []), f"bench_planning_peer_{key}.json")
+            + _node_args(node, node_setup), f"bench_planning_peer_{key}.json")
     return {"combos": combos}
 
 
@@ -455,7 +460,7 @@ def bench_explore(worlds=None, slam="gmapping", node=None, node_setup=None):
     node: another SLAM executable run in ours' place (node_setup: the bash file its
     environment needs), for explore_karto_peer; its result is {"node", "worlds"}."""
     script = os.path.join(WS, "src", "my_summit_navigation", "scripts", "bench_explore.py")
-    extra = (["--node", node] + (["--node-setup", node_setup] if node_setup else [])) if node else []
+    extra = _node_args(node, node_setup)
     res = {}
     for world, runs in (EXPLORE_KARTO_RUNS if slam == "karto" else EXPLORE_RUNS).items():
         if worlds and world not in worlds:
