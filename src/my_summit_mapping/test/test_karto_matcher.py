@@ -113,13 +113,17 @@ def test_nothing_to_match_gives_a_huge_covariance():
 
 def test_window_moves_onto_a_best_pose_at_its_edge():
     """A prediction 0.22 m off lies outside the +-0.15 m window: the fixed window (open_karto)
-    stops at its edge, the re-centred one reaches the true pose."""
+    stops at its edge, the re-centred one reaches the true pose. Unpenalized: with the
+    distance penalty the edge (0.557) and a pose 0.05 m from the prediction (0.561) were a
+    hair apart in this sparse room, and which won changed between two machines' floating
+    point; unpenalized the edge leads by 0.04."""
     true = np.array([0.3, -0.2, 0.1])
     ref = np.vstack([_to_map(p, _points(p)) for p in ([0.0, 0.0, 0.0], [0.5, 0.3, 0.4])])
     pts = _points(true)
     guess = true + np.array([0.22, 0.0, 0.0])
-    fixed = cm.ScanMatcher(SEARCH, SETTINGS, 12.0).match(pts, ref, guess)
-    moving = cm.ScanMatcher(SEARCH, cm.MatcherSettings(max_recenters=2), 12.0).match(pts, ref, guess)
+    fixed = cm.ScanMatcher(SEARCH, SETTINGS, 12.0).match(pts, ref, guess, penalize=False)
+    moving = cm.ScanMatcher(SEARCH, cm.MatcherSettings(max_recenters=2), 12.0).match(pts, ref, guess,
+                                                                                     penalize=False)
     assert abs(fixed.pose[0] - true[0]) > 0.05
     assert_allclose(moving.pose[:2], true[:2], atol=0.015)
 
