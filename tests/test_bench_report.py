@@ -459,3 +459,17 @@ def test_planning_core_json_keys_are_the_ones_the_page_reads():
     assert [w for w, _ in bench.WORLDS] == list(bench_report.CLOSED_WORLDS)
     assert list(bench.GLOBAL_PLANNERS) == list(bench_report.CLOSED_GLOBAL)
     assert list(bench.LOCAL_PLANNERS) == list(bench_report.CLOSED_LOCAL)
+
+
+def test_explore_rows_give_the_slam_nodes_peak_memory_when_the_runs_have_it():
+    """bench_explore.py reads the SLAM node's VmHWM at the end of each run: median (worst)
+    on its own row; runs without it (older records, a node gone) leave the row out."""
+    res = {"willow": {"coverage_min": 0.93, "coverage_median": 0.93, "collisions": 0,
+                      "runs": [{"precision": 0.95, "recall": 0.99, "sim_s": 900.0, "ate_m": 0.04,
+                                "slam_peak_rss_mb": v} for v in (150.2, 171.9, float("nan"))]}}
+    rows = bench_report.rows_explore_karto(res)
+    assert rows[-1]["figure"] == "... slam_karto's peak resident memory (VmHWM), median (worst)"
+    assert rows[-1]["measured"] == "161 MB (172)" and rows[-1]["met"] is None
+    for r in res["willow"]["runs"]:
+        del r["slam_peak_rss_mb"]
+    assert len(bench_report.rows_explore_karto(res)) == 2

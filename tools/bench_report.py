@@ -699,6 +699,7 @@ def rows_explore(res, coverage=None, precision=None, slam="slam_gmapping"):
     for world, r in res.items():
         runs = r["runs"]
         med = {k: statistics.median(x.get(k, 0.0) for x in runs) for k in ("precision", "recall", "sim_s", "ate_m")}
+        rss = [v for v in (x.get("slam_peak_rss_mb") for x in runs) if v is not None and math.isfinite(v)]
         need = (coverage or EXPLORE_COVERAGE).get(world, EXPLORE_COVERAGE["willow"])
         need_precision = precision or EXPLORE_PRECISION
         out.append(row(f"exploration of {world} with {slam} from {len(runs)} seeded start(s): explored share min / median, "
@@ -715,6 +716,10 @@ def rows_explore(res, coverage=None, precision=None, slam="slam_gmapping"):
                        {"precision": med["precision"], "recall": med["recall"], "ate_m": med["ate_m"]},
                        f">= {need_precision} / >= {EXPLORE_RECALL}",
                        med["precision"] >= need_precision and med["recall"] >= EXPLORE_RECALL))
+        if rss:   # runs before the benchmark read it have none
+            out.append(row(f"... {slam}'s peak resident memory (VmHWM), median (worst)",
+                           f"{statistics.median(rss):.0f} MB ({max(rss):.0f})",
+                           {"slam_peak_rss_mb": statistics.median(rss), "slam_peak_rss_mb_worst": max(rss)}))
     return out
 
 

@@ -7,7 +7,7 @@ move_base on the live map + explore, until explore says it is over (or the wall-
 explored share of the reachable free area (my_summit_navigation.frontiers.
 exploration_coverage), simulated and wall time, collisions, why it ended, and the map's
 precision / recall against the true walls with the SLAM trajectory's ATE (the mapping
-benchmark's evaluation).
+benchmark's evaluation), and the SLAM node's peak resident memory (VmHWM) at the end.
 
     bench_explore.py [--world builtin|willow] [--runs 5] [--seed 0] [--speed 3]
                      [--slam gmapping|karto] [--json PATH]
@@ -44,6 +44,7 @@ WORLDS = {
 CLEARANCE = 0.8          # [m] start poses at least this far from obstacles
 # [s] per run; willow's leaves room for explore's second-chance round at the end
 WALL_LIMIT = {"builtin": 900.0, "willow": 3600.0, "two_rooms": 400.0}
+SLAM_NODE = {"gmapping": "slam_gmapping", "karto": "slam_karto"}   # explore.launch's node names
 FINAL_MAP_WAIT = 60.0    # [s wall] after the end for a map stamped at it (maps come every 5 s)
 
 
@@ -94,7 +95,8 @@ def node_prefix(path, node, setup=None):
 def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_setup=None):
     """One exploration in this process (with `node` in place of our SLAM node when
     given); returns the result dict."""
-    from summit_nav_common.testing.roslaunch_session import RoslaunchSession, wait_for_sim_time_param
+    from summit_nav_common.testing.roslaunch_session import (RoslaunchSession, find_node_pid, peak_rss_mb,
+                                                             wait_for_sim_time_param)
     world_yaml = WORLDS[world_name]
     x, y, yaw = pose
     tag = slam + ("_peer" if node else "")
@@ -127,6 +129,8 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_s
             time.sleep(0.5)
         sim_t = rospy.Time.now().to_sec()
         wall_t = time.monotonic() - w0
+        slam_pid = find_node_pid(session.proc.pid, SLAM_NODE[slam])
+        slam_rss = peak_rss_mb(slam_pid) if slam_pid else float("nan")
         # a map stamped after the end, for the evaluation; a node that has stopped
         # publishing (the real slam_karto, once the robot stands still) is judged on its
         # last map, whose stamp the result records
@@ -154,7 +158,8 @@ def one_run(world_name, pose, speed, out_dir, slam="gmapping", node=None, node_s
             "map_stamp_s": round(map_stamp, 1),
             "wall_s": round(wall_t, 1), "collisions": int(st["coll"]), "ate_m": round(quality["ate_m"], 4),
             "ate_of": "online (tf map -> base_footprint)" if node else "the node's ~trajectory",
-            "precision": round(quality["precision"], 4), "recall": round(quality["recall"], 4)}
+            "precision": round(quality["precision"], 4), "recall": round(quality["recall"], 4),
+            "slam_peak_rss_mb": round(slam_rss, 1)}
 
 
 def main(argv=None):
