@@ -314,11 +314,33 @@ def test_reference_in_map_follows_every_change_of_the_pose():
     node = Node(id=0, stamp=0.0, odom_pose=np.zeros(3), pose=np.array([1.0, 2.0, 0.3]), ranges=np.ones(3, np.float32),
                 points=pts, barycenter=pts.mean(axis=0))
     first = node.reference_in_map()
-    assert_array_equal(first, transform_points(node.pose, pts))
+    assert_array_equal(first, transform_points(node.pose, pts).astype(np.float32))
     assert node.reference_in_map() is first and not first.flags.writeable   # shared, so read-only
     g = PoseGraph()
     g.add_node(node)
     g.set_poses(np.array([[-1.0, 0.5, 2.0]]))
-    assert_array_equal(node.reference_in_map(), transform_points([-1.0, 0.5, 2.0], pts))
+    assert_array_equal(node.reference_in_map(), transform_points([-1.0, 0.5, 2.0], pts).astype(np.float32))
     node.pose[2] = -0.7
-    assert_array_equal(node.reference_in_map(), transform_points([-1.0, 0.5, -0.7], pts))
+    assert_array_equal(node.reference_in_map(), transform_points([-1.0, 0.5, -0.7], pts).astype(np.float32))
+
+
+def test_a_node_keeps_its_scan_once(loop_data):
+    """A node's matching points are a view of its reference (float32, those points first),
+    its map-frame reference a float32 copy: on willow-full 2500 nodes of 1081 beams held
+    the points and the reference as separate float64 arrays, with a float64 cache beside
+    them, 56 kB a node. The points are the readings within range_threshold minus
+    QUERY_RANGE_MARGIN, the reference all within range_threshold."""
+    from my_summit_mapping.karto.mapper import QUERY_RANGE_MARGIN
+    truth, odom, scans = loop_data
+    mapper, nodes = run(truth[:6], odom[:6], scans[:6])
+    lim = min(LASER.range_max, mapper.params.range_threshold)
+    for node, k in zip(mapper.graph.nodes, nodes):
+        assert node.reference.dtype == np.float32 and node.points.base is node.reference
+        assert_array_equal(node.points, node.reference[:len(node.points)])
+        r = scans[k]
+        ok = np.isfinite(r) & (r <= lim)
+        assert len(node.reference) == ok.sum()
+        assert len(node.points) == (ok & (r <= lim - QUERY_RANGE_MARGIN)).sum()
+        assert node.reference_in_map().dtype == np.float32
+        per_node = node.ranges.nbytes + node.reference.nbytes + node.reference_in_map().nbytes
+        assert per_node <= 4 * len(r) + 2 * 8 * ok.sum()

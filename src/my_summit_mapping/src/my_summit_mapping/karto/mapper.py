@@ -270,7 +270,9 @@ class KartoMapper:
     def _points_and_reference(self, r: np.ndarray):
         """(hit points to match (k, 2), reference points (m, 2)) in the base frame of ranges
         r (n,): readings within [range_min, min(range_max, range_threshold)], those to
-        match QUERY_RANGE_MARGIN closer."""
+        match QUERY_RANGE_MARGIN closer. float32, the points to match first in the
+        reference and `points` a view of them: a node keeps its scan once (a willow-full
+        exploration holds 2500 nodes of 1081 beams; float64 copies of both were 90 MB)."""
         lim = min(self.laser.range_max, self.params.range_threshold)
         with np.errstate(invalid="ignore"):
             ok = np.isfinite(r) & (r >= self.laser.range_min) & (r <= lim) & (r > 0.0)
@@ -278,8 +280,8 @@ class KartoMapper:
         local = np.column_stack((r[ok] * np.cos(a), r[ok] * np.sin(a)))
         ref_only = np.hypot(local[:, 0], local[:, 1]) > lim - QUERY_RANGE_MARGIN
         pts_all = transform_points(self._mount, local)
-        pts = pts_all[~ref_only]
-        return pts, pts_all
+        ref = np.concatenate((pts_all[~ref_only], pts_all[ref_only])).astype(np.float32)
+        return ref[:int(np.count_nonzero(~ref_only))], ref
 
     def _process(self, r, odom, stamp) -> ScanResult:
         p = self.params

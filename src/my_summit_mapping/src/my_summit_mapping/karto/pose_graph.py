@@ -66,7 +66,8 @@ class Node:
     odom_pose: np.ndarray      # (3,) base pose in the odometry frame [m, m, rad]
     pose: np.ndarray           # (3,) corrected base pose in the map frame [m, m, rad]
     ranges: np.ndarray         # (n,) float32 ranges as received [m]
-    points: np.ndarray         # (k, 2) hit points used for matching, base frame [m]
+    points: np.ndarray         # (k, 2) hit points used for matching, base frame [m] (float32,
+                               # a view of the reference's first rows: KartoMapper._points_and_reference)
     barycenter: np.ndarray     # (2,) mean of points, base frame [m] (the node's own position if none)
     reference: np.ndarray = None  # (m, 2) points this scan offers as a reference, base
                                   # frame [m] (points if None)
@@ -82,6 +83,7 @@ class Node:
         key = np.asarray(self.pose, float).tobytes()
         if self._reference_cache is None or self._reference_cache[0] != key:
             ref = transform_points(self.pose, self.points if self.reference is None else self.reference)
+            ref = ref.astype(np.float32)    # kept for every node: half the bytes, um precision
             ref.flags.writeable = False
             self._reference_cache = (key, ref)
         return self._reference_cache[1]
