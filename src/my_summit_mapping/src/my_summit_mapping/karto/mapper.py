@@ -36,6 +36,12 @@ The graph is optimized only when a loop closes (as open_karto); the edges added 
 between (running buffer, near chains) wait for the next closure.
 
 map -> odom is the latest node's corrected pose times the inverse of its odometry pose.
+
+The map (render) casts every node's scan from its corrected pose. With
+`shadow_filter_min_angle` (ours; off by default, as open_karto has no such step) it leaves
+out each scan's mixed pixels (shadow_filter): matching keeps them, since on Intel's 1 deg
+laser dropping them from the match too took away enough of each scan that half the loops
+no longer closed (online ATE median 0.39 m instead of 0.18, seeds 1-5).
 """
 import dataclasses
 import math
@@ -44,6 +50,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from ..shadow_filter import shadow_mask
 from . import correlative_matcher as cm
 from . import loop_closure as lc
 from .optimizer import optimize, optimize_graph
@@ -123,6 +130,11 @@ class KartoParams:
                                       "(open_karto's laser RangeThreshold) [m]", 0.0)
     correlation_search_max_recenters: int = _p(0, "times the sequential search window moves onto a best "
                                                   "pose found at its edge (ours; 0: open_karto's fixed window) [-]", 0)
+    shadow_filter_min_angle: float = _p(0.0, "leave mixed pixels out of the map: beams whose neighbour lies "
+                                             "within this angle of their line of sight (ours, laser_filters' "
+                                             "ScanShadowsFilter min_angle; 0: off, as open_karto) [rad]",
+                                        0.0, math.pi / 2)
+    shadow_filter_window: int = _p(1, "neighbours on each side the mixed-pixel test compares [-]", 1)
     loop_closure_max_correction: float = _p(3.0, "a loop closure that moves a node farther is "
                                                  "rejected (ours) [m]", 0.0)
 
@@ -520,9 +532,21 @@ class KartoMapper:
             r = np.array([n.ranges for n in self.graph.nodes[k0:]], float).reshape(-1, len(self._angles))
             with np.errstate(invalid="ignore"):
                 r[~(r >= self.laser.range_min)] = np.nan
+            for row, node in zip(r, self.graph.nodes[k0:]):
+                row[self._shadows(node)] = np.nan      # mixed pixels: not drawn
             return r
         return self._renderer.render(self.graph.poses(), ranges, self._angles, self._mount,
                                      self.params.range_threshold, self.laser.range_max, res)
+
+    def _shadows(self, node: Node) -> np.ndarray:
+        """The beams of node's scan the map leaves out as mixed pixels (shadow_filter),
+        found once per node: the map is cast anew from every node after a loop closes."""
+        p = self.params
+        key = (p.shadow_filter_min_angle, p.shadow_filter_window)
+        if node.shadows is None or node.shadows[0] != key:
+            found = np.flatnonzero(shadow_mask(node.ranges, self._angles, *key)) if key[0] > 0.0 else np.zeros(0, int)
+            node.shadows = (key, found.astype(np.int32))
+        return node.shadows[1]
 
     # ------------------------------------------------------------ persistence
     def save(self, path: str) -> None:
