@@ -41,13 +41,23 @@ def test_no_return_beams_free_up_to_max_urange_only():
     assert np.hypot(free[:, 1], free[:, 0]).max() < 1.0 + RES  # nothing beyond maxUrange
 
 
-def test_fast_ray_tracing_matches_reference():
+@pytest.mark.parametrize("no_hit_every", [0, 5])
+def test_fast_ray_tracing_matches_reference(no_hit_every):
+    """trace_scan against the per-beam walk; with no_hit, those beams free their line
+    (their end cell untouched) and mark nothing."""
     pose = np.array([0.37, -0.21, 0.4])
     ranges = ray_cast(pose)
     ranges[::7] = np.nan
+    no_hit = np.zeros(len(ranges), bool)
+    if no_hit_every:
+        no_hit[::no_hit_every] = True
     res = 0.047  # not a divisor of the wall coordinates: no endpoint on a cell boundary [m]
-    ix0, iy0, counts = G.trace_scan(pose, ranges, ANGLES, 8.0, 29.0, res)
-    ref = G.trace_scan_reference(pose, ranges, ANGLES, 8.0, 29.0, res)
+    ix0, iy0, counts = G.trace_scan(pose, ranges, ANGLES, 8.0, 29.0, res, no_hit)
+    ref = G.trace_scan_reference(pose, ranges, ANGLES, 8.0, 29.0, res, no_hit)
+    if no_hit_every:
+        plain = G.trace_scan(pose, ranges, ANGLES, 8.0, 29.0, res)[2]
+        assert counts[G.HITS].sum() < plain[G.HITS].sum()
+        assert counts[G.HITS].sum() == np.sum(np.isfinite(ranges) & ~no_hit & (ranges < 8.0))
     fast = np.zeros_like(counts)
     for (x, y), layers in ref.items():
         fast[:, y - iy0, x - ix0] = layers          # raises if the window misses a cell
@@ -154,10 +164,12 @@ def test_compiled_tracing_matches_numpy_trace():
     g = G.PatchGrid(res)
     g.integrate_scan(pose + [0.2, 0.1, 0.3], ray_cast(pose + [0.2, 0.1, 0.3]), ANGLES, 8.0, 29.0)
     before = g.copy()
-    ix0, iy0, counts = G.trace_scan(pose, ranges, ANGLES, 8.0, 29.0, res)
+    no_hit = np.zeros(len(ranges), bool)
+    no_hit[2::9] = True                             # free their line, mark nothing
+    ix0, iy0, counts = G.trace_scan(pose, ranges, ANGLES, 8.0, 29.0, res, no_hit)
     _, h, w = counts.shape
     expected = before.read_layers(ix0, iy0, w, h) + counts
-    g.integrate_scan(pose, ranges, ANGLES, 8.0, 29.0)
+    g.integrate_scan(pose, ranges, ANGLES, 8.0, 29.0, no_hit)
     assert_allclose(g.read_layers(ix0, iy0, w, h), expected, rtol=1e-6, atol=1e-6)
     assert_array_equal(g.read_layers(ix0, iy0, w, h)[:G.SUM_X], expected[:G.SUM_X])   # counts exact
     assert_allclose(before.read_layers(ix0, iy0, w, h), expected - counts, atol=1e-6)

@@ -297,16 +297,18 @@ class PatchGrid:
 
     # ------------------------------------------------------------ ray tracing
     def integrate_scan(self, laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarray,
-                       max_urange: float, max_range: float) -> None:
+                       max_urange: float, max_range: float, no_hit: Optional[np.ndarray] = None) -> None:
         """Ray-trace one scan from laser_pose (x [m], y [m], theta [rad]) into the grid.
 
         ranges (n,) [m], angles (n,) [rad] in the laser frame. A beam with a range <
         max_urange (and <= max_range) marks its end cell hit at its end point; one in
         [max_urange, max_range] only frees cells up to max_urange; a range that is NaN,
         <= 0 or > max_range (+inf: no return) is skipped, as gmapping's registerScan does.
+        no_hit (n,) bool: beams that only free the cells before their end, as one cut at
+        max_urange (a mixed pixel's line of sight is free, its end point is no surface).
         """
         laser_pose = np.asarray(laser_pose, float)
-        ends, is_hit = beam_endpoints(laser_pose, ranges, angles, max_urange, max_range)
+        ends, is_hit = beam_endpoints(laser_pose, ranges, angles, max_urange, max_range, no_hit)
         if len(ends) == 0:
             return
         res = self.resolution
@@ -432,17 +434,20 @@ def cell_entropy(hits: np.ndarray, visits: np.ndarray) -> np.ndarray:
 
 
 def beam_endpoints(laser_pose: np.ndarray, ranges: np.ndarray, angles: np.ndarray,
-                   max_urange: float, max_range: float):
+                   max_urange: float, max_range: float, no_hit: Optional[np.ndarray] = None):
     """Classify beams and compute ray ends in the world (gmapping's registerScan).
 
     Returns (ends (K, 2) [m] of the used beams, is_hit (K,) bool): a beam with 0 < r <=
-    max_range is used; it ends at r and is a hit when r < max_urange, else it ends at
-    max_urange. NaN, r <= 0 and r > max_range (+inf, no return) are dropped.
+    max_range is used; it ends at r and is a hit when r < max_urange (and not no_hit,
+    (n,) bool, when given), else it ends at min(r, max_urange). NaN, r <= 0 and r >
+    max_range (+inf, no return) are dropped.
     """
     r = np.asarray(ranges, float)
     with np.errstate(invalid="ignore"):
         used = (r > 0.0) & (r <= max_range)          # False for NaN
     is_hit = used & (r < max_urange)
+    if no_hit is not None:
+        is_hit &= ~np.asarray(no_hit, bool)
     length = np.minimum(r[used], max_urange)
     a = laser_pose[2] + np.asarray(angles, float)[used]
     ends = np.column_stack((laser_pose[0] + length * np.cos(a), laser_pose[1] + length * np.sin(a)))
@@ -466,7 +471,7 @@ def bresenham_cells(start: np.ndarray, stop: np.ndarray):
     return np.column_stack([x, y]), beam
 
 
-def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
+def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution, no_hit=None):
     """Rasterize a scan into (ix0, iy0, counts (LAYERS, h, w) float32), patch-aligned.
 
     Per beam (gmapping's registerScan): the Bresenham line from the laser's cell to the end
@@ -475,7 +480,7 @@ def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
     at max_urange leaves its last cell untouched, as in gmapping.
     """
     laser_pose = np.asarray(laser_pose, float)
-    ends, is_hit = beam_endpoints(laser_pose, ranges, angles, max_urange, max_range)
+    ends, is_hit = beam_endpoints(laser_pose, ranges, angles, max_urange, max_range, no_hit)
     if len(ends) == 0:
         return 0, 0, np.zeros((LAYERS, 0, 0), np.float32)
     start_cell = np.floor(laser_pose[:2] / resolution).astype(np.int64)
@@ -503,7 +508,7 @@ def trace_scan(laser_pose, ranges, angles, max_urange, max_range, resolution):
     return ix0, iy0, counts.reshape(LAYERS, height, width)
 
 
-def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, resolution):
+def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, resolution, no_hit=None):
     """Slow, obvious per-beam ray tracer (test oracle for `trace_scan`).
 
     For each beam, a plain Bresenham walk (one cell per step of the major axis, the minor
@@ -518,12 +523,13 @@ def trace_scan_reference(laser_pose, ranges, angles, max_urange, max_range, reso
 
     x0 = math.floor(laser_pose[0] / resolution)
     y0 = math.floor(laser_pose[1] / resolution)
-    for r, a in zip(ranges, angles):
+    flags = np.zeros(len(ranges), bool) if no_hit is None else np.asarray(no_hit, bool)
+    for r, a, free_only in zip(ranges, angles, flags):
         r = float(r)
         if not 0.0 < r <= max_range:   # NaN, <= 0, beyond maxRange (+inf): skipped
             continue
-        returned = r < max_urange
-        length = r if returned else max_urange
+        returned = r < max_urange and not free_only
+        length = min(r, max_urange)
         th = laser_pose[2] + a
         ex = laser_pose[0] + length * math.cos(th)
         ey = laser_pose[1] + length * math.sin(th)

@@ -44,7 +44,9 @@ class Renderer:
 
     def render(self, poses, ranges, beam_angles, mount, range_threshold, range_max, resolution):
         """As render(); ranges may be a callable k0 -> ranges (N - k0, n) of nodes k0.. (so
-        that the caller need not build the rows already cast)."""
+        that the caller need not build the rows already cast), or -> (ranges, no_hit (N -
+        k0, n) bool): beams that free their line of sight and mark nothing
+        (grid.PatchGrid.integrate_scan)."""
         poses = np.asarray(poses, float)
         setup = (float(resolution), float(range_threshold), float(range_max), tuple(np.asarray(mount, float)),
                  np.asarray(beam_angles, float).tobytes())
@@ -53,8 +55,11 @@ class Renderer:
                 or not np.array_equal(poses[:done], self._poses)):
             self._grid, self._setup, done = PatchGrid(resolution, PatchPool(64)), setup, 0
         new = ranges(done) if callable(ranges) else np.asarray(ranges, float)[done:]
-        for pose, r in zip(poses[done:], np.asarray(new, float)):
-            self._grid.integrate_scan(compose(pose, mount), r, beam_angles, range_threshold, range_max)
+        new, no_hit = new if isinstance(new, tuple) else (new, None)
+        new = np.asarray(new, float)
+        for k, (pose, r) in enumerate(zip(poses[done:], new)):
+            self._grid.integrate_scan(compose(pose, mount), r, beam_angles, range_threshold, range_max,
+                                      None if no_hit is None else no_hit[k])
         self._poses = poses.copy()
         return _occupancy(self._grid, resolution)
 
