@@ -534,6 +534,8 @@ class KartoMapper:
             r = np.array([n.ranges for n in self.graph.nodes[k0:]], float).reshape(-1, len(self._angles))
             with np.errstate(invalid="ignore"):
                 r[~(r >= self.laser.range_min)] = np.nan
+            if self.params.shadow_filter_min_angle <= 0.0:
+                return r
             no_hit = np.zeros(r.shape, bool)
             for row, node in zip(no_hit, self.graph.nodes[k0:]):
                 row[self._shadows(node)] = True        # mixed pixels: their line free, no surface
@@ -547,8 +549,7 @@ class KartoMapper:
         p = self.params
         key = (p.shadow_filter_min_angle, p.shadow_filter_window)
         if node.shadows is None or node.shadows[0] != key:
-            found = np.flatnonzero(shadow_mask(node.ranges, self._angles, *key)) if key[0] > 0.0 else np.zeros(0, int)
-            node.shadows = (key, found.astype(np.int32))
+            node.shadows = (key, np.flatnonzero(shadow_mask(node.ranges, self._angles, *key)).astype(np.int32))
         return node.shadows[1]
 
     # ------------------------------------------------------------ persistence
