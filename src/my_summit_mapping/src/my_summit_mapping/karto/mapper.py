@@ -38,12 +38,11 @@ between (running buffer, near chains) wait for the next closure.
 map -> odom is the latest node's corrected pose times the inverse of its odometry pose.
 
 The map (render) casts every node's scan from its corrected pose. With
-`shadow_filter_min_angle` (ours; off by default, as open_karto has no such step) it marks
-no hit at each scan's mixed pixels (shadow_filter) and only frees their line of sight:
-on willow-full the test flags 18 % of the beams (every dash of its walls has two edges),
-too many to leave out altogether. Matching keeps them: on Intel's 1 deg laser, dropping
-them from the match too took away enough of each scan that half the loops no longer
-closed (online ATE median 0.39 m instead of 0.18, seeds 1-5).
+`mixed_pixel_min_offset` (ours; off by default, as open_karto has no such step) it marks
+no hit at each scan's mixed pixels (mixed_pixels) and only frees their line of sight.
+Matching keeps them: on Intel's 1 deg laser, dropping beams from the match (then
+laser_filters' angle test, 15 % of them) took away enough of each scan that half the
+loops no longer closed (online ATE median 0.39 m instead of 0.18, seeds 1-5).
 """
 import dataclasses
 import math
@@ -52,7 +51,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ..shadow_filter import shadow_mask
+from ..mixed_pixels import mixed_pixel_mask
 from . import correlative_matcher as cm
 from . import loop_closure as lc
 from .optimizer import optimize, optimize_graph
@@ -132,11 +131,9 @@ class KartoParams:
                                       "(open_karto's laser RangeThreshold) [m]", 0.0)
     correlation_search_max_recenters: int = _p(0, "times the sequential search window moves onto a best "
                                                   "pose found at its edge (ours; 0: open_karto's fixed window) [-]", 0)
-    shadow_filter_min_angle: float = _p(0.0, "leave mixed pixels out of the map: beams whose neighbour lies "
-                                             "within this angle of their line of sight (ours, laser_filters' "
-                                             "ScanShadowsFilter min_angle; 0: off, as open_karto) [rad]",
-                                        0.0, math.pi / 2)
-    shadow_filter_window: int = _p(1, "neighbours on each side the mixed-pixel test compares [-]", 1)
+    mixed_pixel_min_offset: float = _p(0.0, "leave mixed pixels out of the map: beams whose range lies this "
+                                            "far between their neighbours' and off the lines of both "
+                                            "(ours, mixed_pixels; 0: off, as open_karto) [m]", 0.0)
     loop_closure_max_correction: float = _p(3.0, "a loop closure that moves a node farther is "
                                                  "rejected (ours) [m]", 0.0)
 
@@ -534,23 +531,22 @@ class KartoMapper:
             r = np.array([n.ranges for n in self.graph.nodes[k0:]], float).reshape(-1, len(self._angles))
             with np.errstate(invalid="ignore"):
                 r[~(r >= self.laser.range_min)] = np.nan
-            if self.params.shadow_filter_min_angle <= 0.0:
+            if self.params.mixed_pixel_min_offset <= 0.0:
                 return r
             no_hit = np.zeros(r.shape, bool)
             for row, node in zip(no_hit, self.graph.nodes[k0:]):
-                row[self._shadows(node)] = True        # mixed pixels: their line free, no surface
+                row[self._mixed(node)] = True          # mixed pixels: their line free, no surface
             return r, no_hit
         return self._renderer.render(self.graph.poses(), ranges, self._angles, self._mount,
                                      self.params.range_threshold, self.laser.range_max, res)
 
-    def _shadows(self, node: Node) -> np.ndarray:
-        """The beams of node's scan the map leaves out as mixed pixels (shadow_filter),
+    def _mixed(self, node: Node) -> np.ndarray:
+        """The beams of node's scan the map leaves out as mixed pixels (mixed_pixels),
         found once per node: the map is cast anew from every node after a loop closes."""
-        p = self.params
-        key = (p.shadow_filter_min_angle, p.shadow_filter_window)
-        if node.shadows is None or node.shadows[0] != key:
-            node.shadows = (key, np.flatnonzero(shadow_mask(node.ranges, self._angles, *key)).astype(np.int32))
-        return node.shadows[1]
+        key = self.params.mixed_pixel_min_offset
+        if node.mixed is None or node.mixed[0] != key:
+            node.mixed = (key, np.flatnonzero(mixed_pixel_mask(node.ranges, self._angles, key)).astype(np.int32))
+        return node.mixed[1]
 
     # ------------------------------------------------------------ persistence
     def save(self, path: str) -> None:

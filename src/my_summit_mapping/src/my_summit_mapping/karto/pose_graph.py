@@ -74,8 +74,8 @@ class Node:
     # (pose bytes, reference_in_map at that pose): a node's reference is read for every
     # match near it, ~140 times per node on Intel, and its pose changes far less often
     _reference_cache: tuple = field(default=None, repr=False, compare=False)
-    # ((min_angle, window), beam indices): the mixed pixels the map leaves out (KartoMapper._shadows)
-    shadows: tuple = field(default=None, repr=False, compare=False)
+    # (min_offset, beam indices): the mixed pixels the map leaves out (KartoMapper._mixed)
+    mixed: tuple = field(default=None, repr=False, compare=False)
 
     def points_in_map(self) -> np.ndarray:
         return transform_points(self.pose, self.points)
