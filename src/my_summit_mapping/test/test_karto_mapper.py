@@ -244,6 +244,33 @@ def test_map_drawn_as_the_node_draws_it_equals_a_fresh_cast(loop_data):
     assert closures >= 1 and maps > 10
 
 
+def test_the_map_is_cast_a_chunk_of_scans_at_a_time(loop_data, monkeypatch):
+    """After a loop closure the whole graph is cast again; the renderer asks the mapper
+    for CHUNK nodes' scans at a time, not all of them at once (35 MB in float64 for
+    willow-full's 4000 nodes), and the map is the same as one cast of all of them."""
+    from my_summit_mapping.karto import render as render_module
+    truth, odom, scans = loop_data
+    mapper = KartoMapper(KartoParams(), LASER)
+    for r, o, k in zip(scans, odom, range(len(scans))):
+        mapper.add_scan(r, o, float(k))
+    n = len(mapper.graph.nodes)
+    assert n > 12
+    whole, origin = render_module.render(mapper.graph.poses(), np.array(
+        [np.where(nd.ranges >= LASER.range_min, nd.ranges, np.nan) for nd in mapper.graph.nodes], float),
+        ANGLES, LASER.mount, mapper.params.range_threshold, LASER.range_max, 0.1)
+    monkeypatch.setattr(render_module, "CHUNK", 5)
+    asked = []
+    real = mapper._renderer.render
+
+    def spy(poses, ranges, *args):
+        return real(poses, lambda k0, k1: (asked.append((k0, k1)), ranges(k0, k1))[1], *args)
+    monkeypatch.setattr(mapper._renderer, "render", spy)
+    grid, origin2 = mapper.occupancy_grid(0.1)
+    assert_array_equal(grid, whole)
+    assert origin2 == origin
+    assert asked == [(k, min(k + 5, n)) for k in range(0, n, 5)]
+
+
 # ------------------------------------------------------------------ serialization
 def test_save_load_round_trip_and_continue(tmp_path, loop_data):
     truth, odom, scans = loop_data

@@ -527,14 +527,14 @@ class KartoMapper:
             raise ValueError(f"resolution must be > 0, got {resolution!r}")
         if not self.graph.nodes:
             return np.full((1, 1), -1, np.int8), (0.0, 0.0)
-        def ranges(k0):
-            r = np.array([n.ranges for n in self.graph.nodes[k0:]], float).reshape(-1, len(self._angles))
+        def ranges(k0, k1):
+            r = np.array([n.ranges for n in self.graph.nodes[k0:k1]], float).reshape(-1, len(self._angles))
             with np.errstate(invalid="ignore"):
                 r[~(r >= self.laser.range_min)] = np.nan
             if self.params.mixed_pixel_min_offset <= 0.0:
                 return r
             no_hit = np.zeros(r.shape, bool)
-            for row, node in zip(no_hit, self.graph.nodes[k0:]):
+            for row, node in zip(no_hit, self.graph.nodes[k0:k1]):
                 row[self._mixed(node)] = True          # mixed pixels: their line free, no surface
             return r, no_hit
         return self._renderer.render(self.graph.poses(), ranges, self._angles, self._mount,

@@ -21,6 +21,7 @@ from .pose_graph import compose
 
 OCCUPANCY_THRESHOLD = 0.1   # open_karto's OccupancyThreshold: hits / passes above this [-]
 MIN_PASS_THROUGH = 2        # open_karto's MinPassThrough: fewer passes leave a cell unknown [-]
+CHUNK = 128                 # nodes whose scans Renderer asks for at a time
 
 
 def render(poses: np.ndarray, ranges: np.ndarray, beam_angles: np.ndarray, mount, range_threshold: float,
@@ -43,10 +44,12 @@ class Renderer:
         self._setup = None                 # what else the counts depend on
 
     def render(self, poses, ranges, beam_angles, mount, range_threshold, range_max, resolution):
-        """As render(); ranges may be a callable k0 -> ranges (N - k0, n) of nodes k0.. (so
-        that the caller need not build the rows already cast), or -> (ranges, no_hit (N -
-        k0, n) bool): beams that free their line of sight and mark nothing
-        (grid.PatchGrid.integrate_scan)."""
+        """As render(); ranges may be a callable (k0, k1) -> ranges (k1 - k0, n) of nodes
+        k0..k1-1, or -> (ranges, no_hit (k1 - k0, n) bool): beams that free their line of
+        sight and mark nothing (grid.PatchGrid.integrate_scan). The callable is asked for
+        CHUNK nodes at a time: the caller keeps its scans compact (float32) and need not
+        build the rows already cast, nor all of them at once after a loop closure (4000
+        nodes of 1081 beams in float64 are 35 MB)."""
         poses = np.asarray(poses, float)
         setup = (float(resolution), float(range_threshold), float(range_max), tuple(np.asarray(mount, float)),
                  np.asarray(beam_angles, float).tobytes())
@@ -54,12 +57,17 @@ class Renderer:
         if (self._grid is None or setup != self._setup or done > len(poses)
                 or not np.array_equal(poses[:done], self._poses)):
             self._grid, self._setup, done = PatchGrid(resolution, PatchPool(64)), setup, 0
-        new = ranges(done) if callable(ranges) else np.asarray(ranges, float)[done:]
-        new, no_hit = new if isinstance(new, tuple) else (new, None)
-        new = np.asarray(new, float)
-        for k, (pose, r) in enumerate(zip(poses[done:], new)):
-            self._grid.integrate_scan(compose(pose, mount), r, beam_angles, range_threshold, range_max,
-                                      None if no_hit is None else no_hit[k])
+        if not callable(ranges):
+            table = np.asarray(ranges, float)
+            ranges = lambda k0, k1: table[k0:k1]   # noqa: E731
+        for k0 in range(done, len(poses), CHUNK):
+            k1 = min(k0 + CHUNK, len(poses))
+            new = ranges(k0, k1)
+            new, no_hit = new if isinstance(new, tuple) else (new, None)
+            new = np.asarray(new, float)
+            for k, (pose, r) in enumerate(zip(poses[k0:k1], new)):
+                self._grid.integrate_scan(compose(pose, mount), r, beam_angles, range_threshold, range_max,
+                                          None if no_hit is None else no_hit[k])
         self._poses = poses.copy()
         return _occupancy(self._grid, resolution)
 
