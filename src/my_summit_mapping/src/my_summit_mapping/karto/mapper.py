@@ -55,7 +55,7 @@ from ..mixed_pixels import mixed_pixel_mask
 from . import correlative_matcher as cm
 from . import loop_closure as lc
 from .optimizer import optimize, optimize_graph
-from .pose_graph import Node, PoseGraph, between, compose, inverse, transform_points, weighted_mean, wrap
+from .pose_graph import Node, PoseGraph, ReferenceCache, between, compose, inverse, transform_points, weighted_mean, wrap
 from .render import Renderer
 
 ODOMETRY_COVARIANCE = (0.05 ** 2, 0.05 ** 2, math.radians(3.0) ** 2)  # per-step odometry edge
@@ -64,6 +64,7 @@ QUERY_RANGE_MARGIN = 1.0  # a scan matches only its hits this much closer than t
                           # while its hits up to the threshold serve as reference: otherwise the
                           # far edge of what the reference saw pulls every match backwards
                           # (its farthest hits score only where the reference reaches) [m]
+REFERENCE_CACHE_NODES = 1024  # nodes whose map-frame reference is kept (pose_graph.ReferenceCache)
 RESUME_COVARIANCE = (1.0, 1.0, math.radians(30.0) ** 2)  # a new session's first node where its
                                    # scan matched nothing: start_at's pose, loosely [m^2, m^2, rad^2]
 
@@ -235,6 +236,7 @@ class KartoMapper:
                                                    p.loop_search_space_smear_deviation), settings, p.range_threshold)
         self.graph = PoseGraph()
         self._renderer = Renderer()    # the map, cast again only where poses changed
+        self._refs = ReferenceCache(REFERENCE_CACHE_NODES)
         self._running: List[int] = []
         self._scan_count = 0
         self._last_odom: Optional[np.ndarray] = None
@@ -312,7 +314,7 @@ class KartoMapper:
         # a new session (start_at) matches against the old nodes around its start
         reference_ids = self._running if not resumed else self._nodes_near(predicted[:2])
         if p.use_scan_matching and reference_ids and len(pts):
-            ref = np.vstack([self.graph.nodes[k].reference_in_map() for k in reference_ids])
+            ref = np.vstack([self._refs.get(self.graph.nodes[k]) for k in reference_ids])
             match = self._sequential.match(pts, ref, predicted, penalize=True, refine=True)
             response = match.response
             if response > cm.RESPONSE_TIE:
@@ -412,7 +414,7 @@ class KartoMapper:
                 hi += 1
             if len(chain) < p.loop_match_minimum_chain_size:
                 continue
-            ref = np.vstack([g.nodes[c].reference_in_map() for c in chain])
+            ref = np.vstack([self._refs.get(g.nodes[c]) for c in chain])
             m = self._sequential.match(node.points, ref, node.pose, penalize=False, refine=True)
             if m.response >= p.link_match_minimum_response_fine - cm.RESPONSE_TIE:
                 c = lc.closest_node(g, chain, m.pose)
@@ -444,7 +446,7 @@ class KartoMapper:
                                               p.loop_match_minimum_chain_size, positions, start)
             if not chain:
                 return closed
-            ref = np.vstack([g.nodes[c].reference_in_map() for c in chain])
+            ref = np.vstack([self._refs.get(g.nodes[c]) for c in chain])
             coarse = self._loop.match(node.points, ref, node.pose, penalize=False, refine=False,
                                       min_response=p.loop_match_minimum_response_coarse)
             if not (coarse.response >= p.loop_match_minimum_response_coarse

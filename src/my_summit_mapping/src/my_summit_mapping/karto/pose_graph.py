@@ -10,6 +10,7 @@ A node keeps its scan (ranges as received), the hit points in the base frame use
 matching, its odometry pose and its corrected (optimized) pose in the map frame.
 """
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Dict, List, Set
 
@@ -104,6 +105,29 @@ class Edge:
     kind: str                  # one of EDGE_KINDS
     measurement: np.ndarray    # (3,) pose of j in i's frame [m, m, rad]
     information: np.ndarray    # (3, 3) inverse covariance [1/m^2, 1/rad^2]
+
+
+class ReferenceCache:
+    """Node.reference_in_map kept for the `capacity` nodes read most recently: matches
+    read the running buffer and the chains near the robot again and again, and an old
+    part of the graph only when the robot comes back. Every node keeping its own (8.6 kB
+    at 1081 beams) held 35 MB on willow-full's 4000 nodes."""
+
+    def __init__(self, capacity: int):
+        self.capacity = int(capacity)
+        self._held: "OrderedDict[int, Node]" = OrderedDict()
+
+    def get(self, node: Node) -> np.ndarray:
+        ref = node.reference_in_map()
+        self._held[node.id] = node
+        self._held.move_to_end(node.id)
+        while len(self._held) > self.capacity:
+            _, old = self._held.popitem(last=False)
+            old._reference_cache = None
+        return ref
+
+    def __len__(self) -> int:
+        return len(self._held)
 
 
 @dataclass
